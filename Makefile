@@ -1,0 +1,52 @@
+# e2v notebooks: `make lab` opens the lessons, `make test` runs every test and notebook.
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static PYVISTA_OFF_SCREEN=true MPLBACKEND=Agg
+
+.PHONY: venv lab test unit notebooks lint format bench data figures strip clean
+
+venv: $(STAMP)
+
+$(STAMP): environment/requirements.txt pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --upgrade pip
+	$(PY) -m pip install -r environment/requirements.txt
+	$(PY) -m pip install --no-deps --no-build-isolation -e .
+	$(PY) -m ipykernel install --sys-prefix --name python3 --display-name "Python 3 (e2v)"
+	touch $(STAMP)
+
+lab: $(STAMP)
+	$(VENV)/bin/jupyter lab notebooks/
+
+test: $(STAMP) lint
+	$(QUICK_ENV) $(PY) -m pytest tests notebooks --nbmake --nbmake-timeout=600
+
+unit: $(STAMP)
+	$(QUICK_ENV) $(PY) -m pytest tests
+
+notebooks: $(STAMP)
+	$(QUICK_ENV) $(PY) -m pytest notebooks --nbmake --nbmake-timeout=600 --durations=0
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+format: $(STAMP)
+	$(VENV)/bin/ruff format e2vlib tests bench
+
+bench: $(STAMP)
+	$(PY) -m pip install -r environment/bench-requirements.txt
+	$(PY) bench/run_all.py
+
+data: $(STAMP)
+	$(PY) -m e2vlib make-data --out data_small --preset small
+
+figures: $(STAMP)
+	MPLBACKEND=Agg $(PY) -m e2vlib figures --out docs/figures
+
+strip: $(STAMP)
+	$(PY) tests/strip_notebooks.py notebooks/*.ipynb
+
+clean:
+	rm -rf $(VENV) .pytest_cache
