@@ -1,0 +1,214 @@
+"""Event representations: binary/count/polarity frames, time surfaces, voxel grids.
+
+All functions take an event array of :data:`e2vlib.events.EVENT_DTYPE` (sorted by ``t``,
+microseconds) and ``sensor_size = (width, height)``, validate them, and never modify the
+caller's array. Frames are indexed ``[k, y, x]``; frame ``k`` covers the half-open window
+``[t0 + k*dt, t0 + (k+1)*dt)``.
+
+Introduced in notebooks/02_event_frames.ipynb.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from e2vlib.events import EventError, check_sensor_size, validate
+
+MODES = ("binary", "count", "polarity")
+
+
+def window_count(t_first_us: int, t_last_us: int, dt_us: int, t0_us: int) -> int:
+    """Number of windows of ``dt_us`` starting at ``t0_us`` needed to cover ``t_last_us``.
+
+    The window holding the last event is included, so no event at the end is lost:
+    ``floor((t_last - t0) / dt) + 1`` (0 if every event is before ``t0``).
+    """
+    if t_last_us < t0_us:
+        return 0
+    return int((t_last_us - t0_us) // dt_us) + 1
+
+
+def _windows(
+    events: np.ndarray, dt_us: int, t0_us: int | None, n_frames: int | None
+) -> tuple[int, int, np.ndarray]:
+    """Resolve ``t0`` and ``n`` and return ``(t0, n, starts)``.
+
+    ``starts[k]`` is the index of the first event at or after ``t0 + k*dt`` (length n+1),
+    found by binary search on the sorted timestamps, so events outside the windows are
+    simply not looked at.
+    """
+    if int(dt_us) != dt_us or dt_us <= 0:
+        raise EventError(f"dt_us must be a positive whole number of microseconds, got {dt_us}")
+    dt_us = int(dt_us)
+    t = events["t"]
+    if t0_us is None:
+        if len(t) == 0 and n_frames is None:
+            return 0, 0, np.zeros(1, dtype=np.intp)
+        t0_us = int(t[0]) if len(t) else 0
+    if n_frames is None:
+        n_frames = window_count(int(t[0]), int(t[-1]), dt_us, int(t0_us)) if len(t) else 0
+    if int(n_frames) != n_frames or n_frames < 0:
+        raise EventError(f"n_frames must be a non-negative integer, got {n_frames}")
+    n_frames = int(n_frames)
+    edges = int(t0_us) + dt_us * np.arange(n_frames + 1, dtype=np.int64)
+    starts = np.searchsorted(t, edges, side="left")
+    return int(t0_us), n_frames, starts
+
+
+def _flat_pixel_index(events: np.ndarray, starts: np.ndarray, plane: int, width: int,
+                      channel: np.ndarray | None = None) -> np.ndarray:
+    """Flat index ``k*plane + [c*H*W +] y*W + x`` for the events inside the windows.
+
+    The window offset ``k*plane`` is added per window (a loop over windows, not events):
+    the events are sorted, so window ``k`` is the contiguous slice ``starts[k]:starts[k+1]``.
+    """
+    lo, hi = int(starts[0]), int(starts[-1])
+    flat = events["y"][lo:hi].astype(np.intp)
+    flat *= width
+    flat += events["x"][lo:hi]
+    if channel is not None:
+        flat += channel
+    rel = starts - lo
+    for k in range(1, len(starts) - 1):
+        if rel[k] < rel[k + 1]:
+            flat[rel[k]:rel[k + 1]] += k * plane
+    return flat
+
+
+def accumulate(
+    events: np.ndarray,
+    sensor_size: tuple[int, int],
+    dt_us: int = 5000,
+    t0_us: int | None = None,
+    n_frames: int | None = None,
+    mode: str = "binary",
+) -> np.ndarray:
+    """Accumulate events into a stack of frames, one per time window of ``dt_us``.
+
+    Modes:
+      * ``"binary"`` -- ``(n, H, W)`` uint8, 1 where a pixel fired at least once in the
+        window, whatever the polarity (the paper's Eq. 4-5, E2V's input);
+      * ``"count"`` -- ``(n, H, W)`` int32, number of events per pixel and window;
+      * ``"polarity"`` -- ``(n, 2, H, W)`` int32 counts, channel 0 = OFF (-1), 1 = ON (+1).
+
+    ``t0_us`` defaults to the first event's time; ``n_frames`` to as many windows as cover
+    the last event (the window holding the last event is kept). Events before ``t0_us`` or
+    after the last window are left out. Introduced in notebooks/02_event_frames.ipynb.
+    """
+    width, height = check_sensor_size(sensor_size)
+    validate(events, (width, height))
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    _, n, starts = _windows(events, dt_us, t0_us, n_frames)
+    plane = height * width
+    if mode == "polarity":
+        lo, hi = int(starts[0]), int(starts[-1])
+        channel = (events["p"][lo:hi] > 0).astype(np.intp) * plane
+        flat = _flat_pixel_index(events, starts, 2 * plane, width, channel)
+        counts = np.bincount(flat, minlength=n * 2 * plane)
+        return counts.astype(np.int32).reshape(n, 2, height, width)
+    flat = _flat_pixel_index(events, starts, plane, width)
+    if mode == "binary":
+        out = np.zeros(n * plane, dtype=np.uint8)
+        out[flat] = 1
+        return out.reshape(n, height, width)
+    counts = np.bincount(flat, minlength=n * plane)
+    return counts.astype(np.int32).reshape(n, height, width)
+
+
+def time_surface(
+    events: np.ndarray,
+    sensor_size: tuple[int, int],
+    t_us: int,
+    tau_us: float,
+    split_polarity: bool = True,
+) -> np.ndarray:
+    """Exponentially decaying time surface at time ``t_us`` (Lagorce et al., HOTS, 2017).
+
+    Each pixel holds ``exp(-(t_us - t_last) / tau_us)``, where ``t_last`` is the time of
+    its most recent event at or before ``t_us``; pixels without such an event hold 0.
+    Returns float32 ``(2, H, W)`` (channel 0 = OFF, 1 = ON) or ``(H, W)`` when
+    ``split_polarity`` is False. Introduced in notebooks/02_event_frames.ipynb.
+    """
+    width, height = check_sensor_size(sensor_size)
+    validate(events, (width, height))
+    if not (np.isfinite(tau_us) and tau_us > 0):
+        raise ValueError(f"tau_us must be a positive number of microseconds, got {tau_us}")
+    end = int(np.searchsorted(events["t"], t_us, side="right"))
+    past = events[:end]
+    plane = height * width
+    flat = past["y"].astype(np.intp) * width + past["x"]
+    n_channels = 2 if split_polarity else 1
+    if split_polarity:
+        flat += (past["p"] > 0).astype(np.intp) * plane
+    # Events are sorted, so the last occurrence of each pixel is its most recent event.
+    uniq, first_in_reversed = np.unique(flat[::-1], return_index=True)
+    t_last = past["t"][::-1][first_in_reversed]
+    surface = np.zeros(n_channels * plane, dtype=np.float32)
+    surface[uniq] = np.exp(-(t_us - t_last) / float(tau_us))
+    shape = (2, height, width) if split_polarity else (height, width)
+    return surface.reshape(shape)
+
+
+def voxel_grid(events: np.ndarray, sensor_size: tuple[int, int], n_bins: int) -> np.ndarray:
+    """Event voxel grid with bilinear interpolation in time (Zhu et al., CVPR 2019).
+
+    Times are scaled to ``t* = (n_bins - 1) (t - t_first) / (t_last - t_first)``; each
+    event adds its polarity ``p`` to bins ``b`` with weight ``max(0, 1 - |b - t*|)``, so an
+    event's weight is split between its two nearest bins and sums to ``p``. Returns float32
+    ``(n_bins, H, W)``. Introduced in notebooks/02_event_frames.ipynb.
+    """
+    width, height = check_sensor_size(sensor_size)
+    validate(events, (width, height))
+    if int(n_bins) != n_bins or n_bins < 1:
+        raise ValueError(f"n_bins must be a positive integer, got {n_bins}")
+    n_bins = int(n_bins)
+    plane = height * width
+    grid = np.zeros(n_bins * plane, dtype=np.float64)
+    if len(events) == 0:
+        return grid.astype(np.float32).reshape(n_bins, height, width)
+    t = events["t"]
+    span = float(t[-1] - t[0])
+    t_star = (n_bins - 1) * (t - t[0]) / span if span > 0 else np.zeros(len(t))
+    left = np.floor(t_star).astype(np.intp)
+    frac = t_star - left
+    pixel = events["y"].astype(np.intp) * width + events["x"]
+    p = events["p"].astype(np.float64)
+    grid += np.bincount(left * plane + pixel, weights=p * (1 - frac), minlength=n_bins * plane)
+    inside = left + 1 < n_bins  # the right neighbour exists (always, except at t* = n_bins - 1)
+    grid += np.bincount(
+        (left[inside] + 1) * plane + pixel[inside],
+        weights=(p * frac)[inside],
+        minlength=n_bins * plane,
+    )
+    return grid.astype(np.float32).reshape(n_bins, height, width)
+
+
+def downsample(frames: np.ndarray, factor: int, reduce: str = "auto") -> np.ndarray:
+    """Shrink the last two axes (H, W) by an integer ``factor``, pooling ``factor^2`` blocks.
+
+    ``reduce="max"`` keeps a pixel that fired in any of its block (binary frames: the
+    paper scales 512 -> 256 this way); ``"sum"`` adds counts, so the number of events is
+    kept. ``"auto"`` uses max for bool/uint8 frames (what ``mode="binary"`` returns) and
+    sum for anything else. H and W must be divisible by ``factor``.
+    Introduced in notebooks/02_event_frames.ipynb.
+    """
+    frames = np.asarray(frames)
+    if frames.ndim < 2:
+        raise ValueError(f"frames must have at least 2 dimensions (..., H, W), got {frames.shape}")
+    if int(factor) != factor or factor < 1:
+        raise ValueError(f"factor must be a positive integer, got {factor}")
+    factor = int(factor)
+    height, width = frames.shape[-2:]
+    if height % factor or width % factor:
+        raise ValueError(
+            f"H x W = {height} x {width} is not divisible by factor {factor}; crop or pad first"
+        )
+    if reduce == "auto":
+        reduce = "max" if frames.dtype in (np.bool_, np.uint8) else "sum"
+    if reduce not in ("max", "sum"):
+        raise ValueError(f"reduce must be 'auto', 'max' or 'sum', got {reduce!r}")
+    blocks = frames.reshape(*frames.shape[:-2], height // factor, factor, width // factor, factor)
+    if reduce == "max":
+        return blocks.max(axis=(-3, -1))
+    return blocks.sum(axis=(-3, -1))  # integer counts widen to int64, floats stay floats

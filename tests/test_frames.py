@@ -1,0 +1,130 @@
+import numpy as np
+import pytest
+
+from e2vlib.events import EventError, make_events
+from e2vlib.frames import accumulate, downsample, time_surface, voxel_grid, window_count
+
+
+def test_binary_frames_by_hand(small_events):
+    # windows of 5000 us from t0 = 0: [0,5000) holds events 0,1,2; [5000,10000) holds 3,4;
+    # [10000,15000) holds 5 (the last event gets a window of its own, nothing is dropped)
+    frames = accumulate(small_events, (4, 3), dt_us=5000)
+    assert frames.shape == (3, 3, 4) and frames.dtype == np.uint8
+    expected = np.zeros((3, 3, 4), dtype=np.uint8)
+    expected[0, 0, 0] = expected[0, 0, 1] = 1  # (x=1, y=0) fired twice: still 1
+    expected[1, 2, 3] = expected[1, 1, 0] = 1
+    expected[2, 2, 2] = 1
+    np.testing.assert_array_equal(frames, expected)
+
+
+def test_count_and_polarity_frames_by_hand(small_events):
+    counts = accumulate(small_events, (4, 3), dt_us=5000, mode="count")
+    assert counts[0, 0, 1] == 2 and counts.sum() == 6
+    pol = accumulate(small_events, (4, 3), dt_us=5000, mode="polarity")
+    assert pol.shape == (3, 2, 3, 4)
+    assert pol[0, 0, 0, 1] == 1 and pol[0, 1, 0, 1] == 1  # one OFF and one ON at (1, 0)
+    assert pol[0, 1, 0, 0] == 1 and pol[0, 0, 0, 0] == 0  # ON at (0, 0)
+    assert pol[2, 0, 2, 2] == 1  # the last event is OFF
+    np.testing.assert_array_equal(pol.sum(axis=1), counts)
+
+
+def test_windows_are_half_open():
+    ev = make_events([0, 0, 0], [0, 0, 0], [4999, 5000, 5001], [1, 1, 1])
+    counts = accumulate(ev, (1, 1), dt_us=5000, t0_us=0, mode="count")
+    assert counts[:, 0, 0].tolist() == [1, 2]
+
+
+def test_paper_setting_keeps_every_event_of_half_a_second():
+    # 100 windows of 5 ms over [0, 500000): events right at both ends must be kept
+    rng = np.random.default_rng(1)
+    t = np.sort(np.concatenate([[0, 499_999], rng.integers(0, 500_000, 10_000)]))
+    ev = make_events(rng.integers(0, 16, len(t)), rng.integers(0, 8, len(t)), t,
+                     np.ones(len(t), dtype=int))
+    counts = accumulate(ev, (16, 8), dt_us=5000, t0_us=0, n_frames=100, mode="count")
+    assert counts.shape == (100, 8, 16)
+    assert counts.sum() == len(ev)
+    assert counts[0].sum() == np.sum(t < 5000) and counts[99].sum() == np.sum(t >= 495_000)
+
+
+def test_events_outside_the_windows_are_left_out(small_events):
+    counts = accumulate(small_events, (4, 3), dt_us=5000, t0_us=5000, n_frames=1, mode="count")
+    assert counts.shape == (1, 3, 4) and counts.sum() == 2
+
+
+def test_explicit_empty_windows_and_empty_stream(small_events):
+    frames = accumulate(small_events, (4, 3), dt_us=1000, t0_us=100_000, n_frames=3)
+    assert frames.shape == (3, 3, 4) and frames.sum() == 0
+    empty = small_events[:0]
+    assert accumulate(empty, (4, 3)).shape == (0, 3, 4)
+    assert window_count(0, 499_999, 5000, 0) == 100
+    assert window_count(0, 500_000, 5000, 0) == 101
+
+
+def test_accumulate_matches_loop_reference(random_events):
+    ev, size = random_events
+    counts = accumulate(ev, size, dt_us=7000, mode="count")
+    ref = np.zeros_like(counts)
+    for e in ev:  # the definition, one event at a time
+        ref[(e["t"] - ev["t"][0]) // 7000, e["y"], e["x"]] += 1
+    np.testing.assert_array_equal(counts, ref)
+    np.testing.assert_array_equal(accumulate(ev, size, dt_us=7000), (ref > 0).astype(np.uint8))
+
+
+def test_accumulate_does_not_mutate_input(random_events):
+    ev, size = random_events
+    before = ev.copy()
+    for mode in ("binary", "count", "polarity"):
+        accumulate(ev, size, mode=mode)
+    np.testing.assert_array_equal(ev, before)
+
+
+def test_accumulate_rejects_bad_input(small_events):
+    with pytest.raises(EventError, match="outside"):
+        accumulate(small_events, (2, 2))
+    with pytest.raises(EventError, match="not sorted"):
+        accumulate(small_events[::-1], (4, 3))
+    with pytest.raises(ValueError, match="mode"):
+        accumulate(small_events, (4, 3), mode="sum")
+    with pytest.raises(EventError, match="dt_us"):
+        accumulate(small_events, (4, 3), dt_us=0)
+
+
+def test_time_surface_by_hand(small_events):
+    # at t = 10000 with tau = 5000: pixel (x=1,y=0) ON last fired at 4999, OFF at 10
+    ts = time_surface(small_events, (4, 3), t_us=10_000, tau_us=5000)
+    assert ts.shape == (2, 3, 4) and ts.dtype == np.float32
+    assert ts[1, 0, 1] == pytest.approx(np.exp(-5001 / 5000))
+    assert ts[0, 0, 1] == pytest.approx(np.exp(-9990 / 5000))
+    assert ts[0, 2, 2] == pytest.approx(1.0)  # the OFF event at exactly t_us
+    assert ts[1, 2, 2] == 0  # never an ON event there
+    merged = time_surface(small_events, (4, 3), t_us=9_999, tau_us=5000, split_polarity=False)
+    assert merged.shape == (3, 4)
+    assert merged[0, 1] == pytest.approx(np.exp(-5000 / 5000))  # most recent of both: 4999
+    assert merged[2, 2] == 0  # the event at 10000 is in the future
+
+
+def test_voxel_grid_bilinear_in_time():
+    # span 0..100 us, 3 bins -> t* = 0, 0.5, 2 for the three events
+    ev = make_events([0, 1, 1], [0, 0, 0], [0, 25, 100], [1, -1, 1])
+    vg = voxel_grid(ev, (2, 1), n_bins=3)
+    assert vg.shape == (3, 1, 2) and vg.dtype == np.float32
+    np.testing.assert_allclose(vg[:, 0, 0], [1, 0, 0])
+    np.testing.assert_allclose(vg[:, 0, 1], [-0.5, -0.5, 1])
+
+
+def test_voxel_grid_preserves_total_polarity(random_events):
+    ev, size = random_events
+    vg = voxel_grid(ev, size, n_bins=5)
+    assert vg.sum() == pytest.approx(float(ev["p"].sum()), abs=1e-2)
+
+
+def test_downsample_max_for_binary_sum_for_counts():
+    frames = np.zeros((1, 4, 4), dtype=np.uint8)
+    frames[0, 0, 0] = frames[0, 1, 1] = frames[0, 3, 2] = 1
+    np.testing.assert_array_equal(downsample(frames, 2)[0], [[1, 0], [0, 1]])
+    counts = frames.astype(np.int32) * 3
+    np.testing.assert_array_equal(downsample(counts, 2)[0], [[6, 0], [0, 3]])
+    pol = np.ones((2, 2, 4, 6), dtype=np.int32)
+    assert downsample(pol, 2).shape == (2, 2, 2, 3) and downsample(pol, 2).sum() == pol.sum()
+    with pytest.raises(ValueError, match="divisible"):
+        downsample(np.zeros((1, 5, 4)), 2)
