@@ -3,7 +3,7 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static PYVISTA_OFF_SCREEN=true MPLBACKEND=Agg
+QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static
 
 .PHONY: venv lab test unit notebooks lint format bench data figures strip clean
 
