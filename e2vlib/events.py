@@ -81,14 +81,38 @@ def make_events(x: ArrayLike, y: ArrayLike, t: ArrayLike, p: ArrayLike) -> np.nd
     return out
 
 
-def validate(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
-    """Check that ``events`` follow the conventions; return them unchanged if so.
+CHUNK = 1 << 16
+"""Events processed per step by chunked loops: small enough that a chunk's fields stay in
+the CPU cache while several checks read them, large enough to keep numpy's overhead low."""
 
-    Checks, in order: dtype is :data:`EVENT_DTYPE`, ``sensor_size`` is ``(width, height)``
-    of positive ints, every ``x < width`` and ``y < height``, polarity is -1 or +1, and
-    timestamps never decrease. Raises :class:`EventError` naming the problem, how many
-    events it affects, and the fix.
+
+def iter_checked_chunks(events: np.ndarray, sensor_size: tuple[int, int], chunk: int = CHUNK):
+    """Yield ``(start, block)`` slices of ``events`` after checking each against the rules.
+
+    This is :func:`validate` done block by block, so functions that read the events anyway
+    (like :func:`e2vlib.frames.accumulate`) can check and use each block while it is still
+    in the CPU cache. On the first broken block the whole stream is re-checked by
+    :func:`validate`, which raises the detailed :class:`EventError`.
     """
+    _check_dtype(events)
+    width, height = check_sensor_size(sensor_size)
+    t = events["t"]
+    for start in range(0, len(events), chunk):
+        block = events[start:start + chunk]
+        bt, p = block["t"], block["p"]
+        ok = (
+            block["x"].max() < width
+            and block["y"].max() < height
+            and np.count_nonzero(p * p != 1) == 0  # p is -1 or +1 (int8: no overflow)
+            and bool(np.all(bt[1:] >= bt[:-1]))
+            and (start == 0 or t[start - 1] <= bt[0])
+        )
+        if not ok:
+            _report(events, (width, height))
+        yield start, block
+
+
+def _check_dtype(events: np.ndarray) -> None:
     if not isinstance(events, np.ndarray) or events.dtype != EVENT_DTYPE:
         got = getattr(events, "dtype", type(events).__name__)
         raise EventError(
@@ -97,7 +121,11 @@ def validate(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
         )
     if events.ndim != 1:
         raise EventError(f"events must be 1-D, got shape {events.shape}")
-    width, height = check_sensor_size(sensor_size)
+
+
+def _report(events: np.ndarray, sensor_size: tuple[int, int]) -> None:
+    """Check the whole stream at once and raise an EventError counting what is wrong."""
+    width, height = sensor_size
     outside = (events["x"] >= width) | (events["y"] >= height)
     if outside.any():
         raise EventError(
@@ -117,6 +145,18 @@ def validate(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
             f"timestamps are not sorted: {int(backwards.sum())} events are earlier than the "
             "event before them; sort with events[np.argsort(events['t'], kind='stable')]"
         )
+
+
+def validate(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
+    """Check that ``events`` follow the conventions; return them unchanged if so.
+
+    Checks: dtype is :data:`EVENT_DTYPE`, ``sensor_size`` is ``(width, height)`` of
+    positive ints, every ``x < width`` and ``y < height``, polarity is -1 or +1, and
+    timestamps never decrease. Raises :class:`EventError` naming the problem, how many
+    events it affects, and the fix. Introduced in notebooks/01_events.ipynb.
+    """
+    for _ in iter_checked_chunks(events, sensor_size):
+        pass
     return events
 
 
