@@ -1,0 +1,476 @@
+"""Datasets: build E2V samples from meshes, store them compactly, and read them back.
+
+One sample is what the paper feeds its network: an object is rendered along the spiral
+orbit (120 frames at 240 fps = 0.5 s, rendered ``oversample`` times denser for the
+simulator), the video becomes events (ESIM, contrast 0.2), the events become 100 binary
+frames of 5 ms, max-pooled down to ``frame_size``; the label is the object's 32^3 voxel
+grid.
+
+Layout written by :func:`build_dataset` (``data_small/`` is one)::
+
+    ROOT/manifest.csv           id, category, split, seed, n_events (one row per sample)
+    ROOT/config.json            the builder's settings (resolution, frame size, ...)
+    ROOT/samples/<id>.npz       frames (bit-packed), voxels (bit-packed), n_events
+    ROOT/events/<id>.npz        raw events of a few samples (e2vlib.io format)
+
+:class:`E2VDataset` reads that layout and the authors' released SynthEVox3D layout.
+
+Introduced in notebooks/04_building_the_dataset.ipynb.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import multiprocessing
+import os
+import zipfile
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset
+
+from e2vlib.events import EventError
+from e2vlib.frames import accumulate, downsample
+from e2vlib.io import atomic_path, save_events
+
+N_FRAMES = 100  # the paper: 100 frames ...
+DT_US = 5_000  # ... of 5 ms = 0.5 s
+VIDEO_FRAMES, VIDEO_FPS = 120, 240  # the paper's orbit video: 120 frames at 240 fps
+SPLITS = ("train", "val", "test")
+SPLIT_FRACTIONS = (0.8, 0.1, 0.1)  # the paper's 8:1:1
+
+
+@dataclass(frozen=True)
+class BuildConfig:
+    """Settings of one dataset build; stored as ROOT/config.json.
+
+    ``resolution``: rendered and simulated image size in px; ``frame_size``: size of the
+    stored frames after max-pooling (must divide ``resolution``); ``oversample``: render
+    this many times more video frames than the paper's 240 fps so the object moves at
+    most about a pixel between frames (default: the smallest such factor, 3 at 128 px;
+    see lesson 03).
+    """
+
+    categories: tuple[str, ...]
+    per_category: int
+    resolution: int = 128
+    frame_size: int = 64
+    oversample: int | None = None  # None: the smallest keeping motion <= 1 px per frame
+    contrast: float = 0.2
+    seed: int = 0
+    raw_events_per_category: int = 1
+
+    def __post_init__(self):
+        if self.resolution % self.frame_size:
+            raise ValueError(
+                f"frame_size {self.frame_size} must divide resolution {self.resolution}"
+            )
+        if self.oversample is None:
+            from e2vlib.render import required_oversample
+
+            object.__setattr__(self, "oversample", required_oversample(VIDEO_FRAMES,
+                                                                       self.resolution))
+        if self.per_category < 1:
+            raise ValueError(f"per_category must be at least 1, got {self.per_category}")
+
+
+@dataclass(frozen=True)
+class SampleSpec:
+    """Which object a sample shows, its split, and the seed that makes it."""
+
+    id: str
+    category: str
+    index: int
+    split: str
+    seed: int
+
+
+@dataclass
+class Sample:
+    """A built sample: frames (N_FRAMES, S, S) uint8 0/1, voxels (32, 32, 32) bool."""
+
+    frames: np.ndarray
+    voxels: np.ndarray
+    events: np.ndarray
+    sensor_size: tuple[int, int]
+    extra: dict = field(default_factory=dict)
+
+
+def sample_seed(seed: int, category: str, index: int) -> int:
+    """A stable 31-bit seed for sample ``index`` of ``category`` (independent of order)."""
+    digest = hashlib.sha256(f"{seed}/{category}/{index}".encode()).digest()
+    return int.from_bytes(digest[:4], "little") & 0x7FFFFFFF
+
+
+def plan_samples(config: BuildConfig) -> list[SampleSpec]:
+    """All samples of a build, with their 8:1:1 split (shuffled per category, seeded).
+
+    Per category, ``round(0.1 n)`` samples (at least one when n >= 3) go to val and to
+    test, the rest to train. Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    specs = []
+    n = config.per_category
+    n_held = max(1, round(SPLIT_FRACTIONS[2] * n)) if n >= 3 else 0
+    for category in config.categories:
+        order = np.random.default_rng(sample_seed(config.seed, category, -1)).permutation(n)
+        split_of = {}
+        for rank, index in enumerate(order):
+            split_of[int(index)] = (
+                "test" if rank < n_held else "val" if rank < 2 * n_held else "train"
+            )
+        for index in range(n):
+            specs.append(SampleSpec(
+                id=f"{category}_{index:04d}", category=category, index=index,
+                split=split_of[index], seed=sample_seed(config.seed, category, index),
+            ))
+    return specs
+
+
+def events_to_frames(events: np.ndarray, sensor_size: tuple[int, int], frame_size: int,
+                     t0_us: int = 0) -> np.ndarray:
+    """The paper's input: 100 binary frames of 5 ms from ``t0_us``, max-pooled to ``frame_size``.
+
+    Returns uint8 ``(100, frame_size, frame_size)``; ``sensor_size`` must be square and a
+    multiple of ``frame_size``. Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    width, height = sensor_size
+    if width != height or width % frame_size:
+        raise ValueError(
+            f"sensor {width}x{height} must be square and a multiple of frame_size {frame_size}"
+        )
+    frames = accumulate(events, sensor_size, dt_us=DT_US, t0_us=t0_us, n_frames=N_FRAMES)
+    return downsample(frames, width // frame_size)
+
+
+def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
+    """Run one mesh through the whole pipeline: voxels, orbit video, events, frames.
+
+    The mesh is normalized first (bbox centred, longest side 1). This is exactly what
+    the dataset builder and ``python -m e2vlib reconstruct --mesh`` do.
+    Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    from e2vlib.render import render_orbit
+    from e2vlib.shapes import normalize_mesh
+    from e2vlib.simulate import simulate_events
+    from e2vlib.voxels import voxelize
+
+    mesh = normalize_mesh(mesh)
+    voxels = voxelize(mesh, 32)
+    video, t_us = render_orbit(mesh, n_frames=VIDEO_FRAMES, fps=VIDEO_FPS,
+                               resolution=config.resolution, oversample=config.oversample)
+    events = simulate_events(video, t_us, contrast_pos=config.contrast,
+                             contrast_neg=config.contrast, seed=seed)
+    sensor_size = (config.resolution, config.resolution)
+    frames = events_to_frames(events, sensor_size, config.frame_size)
+    return Sample(frames=frames, voxels=voxels, events=events, sensor_size=sensor_size)
+
+
+def save_sample(path: Path, frames: np.ndarray, voxels: np.ndarray, n_events: int) -> None:
+    """Write one sample as bit-packed, compressed arrays (temp file, then rename)."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(
+            f,
+            frames=np.packbits(frames.astype(bool), axis=None),
+            frames_shape=np.asarray(frames.shape, dtype=np.int64),
+            voxels=np.packbits(voxels.astype(bool), axis=None),
+            voxels_shape=np.asarray(voxels.shape, dtype=np.int64),
+            n_events=np.int64(n_events),
+        )
+
+
+def load_sample(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
+    """Read a sample file; return ``(frames uint8 (D, S, S), voxels bool (32, 32, 32))``."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            frames_shape = tuple(int(v) for v in data["frames_shape"])
+            voxels_shape = tuple(int(v) for v in data["voxels_shape"])
+            frames = np.unpackbits(data["frames"], count=int(np.prod(frames_shape)))
+            voxels = np.unpackbits(data["voxels"], count=int(np.prod(voxels_shape)))
+    except FileNotFoundError:
+        raise
+    except (zipfile.BadZipFile, EOFError, OSError, KeyError, ValueError) as err:
+        raise ValueError(f"{path}: corrupted or truncated sample file ({err}); "
+                         "rebuild it with `python -m e2vlib make-data`") from err
+    return frames.reshape(frames_shape), voxels.reshape(voxels_shape).astype(bool)
+
+
+def _build_one(args: tuple[BuildConfig, SampleSpec, str, bool]) -> dict:
+    config, spec, root, keep_events = args
+    from e2vlib.shapes import make_shape
+
+    sample = mesh_to_sample(make_shape(spec.category, spec.seed), config, seed=spec.seed)
+    root_path = Path(root)
+    if keep_events:
+        save_events(root_path / "events" / f"{spec.id}.npz", sample.events, sample.sensor_size)
+    save_sample(root_path / "samples" / f"{spec.id}.npz", sample.frames, sample.voxels,
+                len(sample.events))
+    return {**asdict(spec), "n_events": len(sample.events)}
+
+
+def parse_shard(text: str) -> tuple[int, int]:
+    """``"i/n"`` -> ``(i, n)`` with ``0 <= i < n``."""
+    try:
+        i, n = (int(v) for v in text.split("/"))
+    except ValueError as err:
+        raise ValueError(f"shard must look like i/n (e.g. 0/4), got {text!r}") from err
+    if not 0 <= i < n:
+        raise ValueError(f"shard {text!r}: need 0 <= i < n")
+    return i, n
+
+
+def build_dataset(
+    root: str | os.PathLike,
+    config: BuildConfig,
+    workers: int = 1,
+    shard: tuple[int, int] = (0, 1),
+    progress: bool = True,
+) -> Path:
+    """Build (or finish building) a dataset in ``root``; return the manifest path.
+
+    Deterministic for a config; resumable: samples whose file exists are skipped, and
+    every file is written under a temporary name, then renamed. ``shard=(i, n)`` builds
+    every n-th sample starting at i, so n processes or cluster jobs can share the work;
+    each run rewrites the manifest from the sample files present.
+    Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    from tqdm.auto import tqdm
+
+    root = Path(root)
+    (root / "samples").mkdir(parents=True, exist_ok=True)
+    (root / "events").mkdir(exist_ok=True)
+    config_path = root / "config.json"
+    if config_path.exists():
+        stored = json.loads(config_path.read_text())
+        if stored != _config_dict(config):
+            raise ValueError(
+                f"{config_path} was built with different settings {stored}; use another "
+                "--out folder or delete it to rebuild"
+            )
+    else:
+        with atomic_path(config_path) as tmp:
+            tmp.write_text(json.dumps(_config_dict(config), indent=2) + "\n")
+
+    specs = plan_samples(config)
+    keep = _raw_event_ids(specs, config.raw_events_per_category)
+    index, count = shard
+    todo = [s for k, s in enumerate(specs) if k % count == index
+            and not (root / "samples" / f"{s.id}.npz").exists()]
+    jobs = [(config, s, str(root), s.id in keep) for s in todo]
+    bar = tqdm(total=len(jobs), desc=f"building {root.name}", unit="sample",
+               disable=not progress)
+    if workers > 1 and len(jobs) > 1:
+        # "spawn": each worker starts a fresh interpreter with its own VTK/OpenGL state.
+        with multiprocessing.get_context("spawn").Pool(workers) as pool:
+            for _ in pool.imap_unordered(_build_one, jobs):
+                bar.update()
+    else:
+        for job in jobs:
+            _build_one(job)
+            bar.update()
+    bar.close()
+    return write_manifest(root, specs)
+
+
+def _config_dict(config: BuildConfig) -> dict:
+    d = asdict(config)
+    d["categories"] = list(config.categories)
+    return d
+
+
+def _raw_event_ids(specs: Sequence[SampleSpec], per_category: int) -> set[str]:
+    """Ids whose raw events are kept: the first test samples of each category."""
+    keep, seen = set(), {}
+    for spec in sorted(specs, key=lambda s: (s.split != "test", s.index)):
+        if seen.get(spec.category, 0) < per_category:
+            keep.add(spec.id)
+            seen[spec.category] = seen.get(spec.category, 0) + 1
+    return keep
+
+
+MANIFEST_FIELDS = ("id", "category", "split", "seed", "n_events")
+
+
+def write_manifest(root: Path, specs: Iterable[SampleSpec]) -> Path:
+    """Write ROOT/manifest.csv for every planned sample whose file exists."""
+    rows = []
+    for spec in specs:
+        path = root / "samples" / f"{spec.id}.npz"
+        if path.exists():
+            with np.load(path, allow_pickle=False) as data:
+                n_events = int(data["n_events"])
+            rows.append({"id": spec.id, "category": spec.category, "split": spec.split,
+                         "seed": spec.seed, "n_events": n_events})
+    manifest = root / "manifest.csv"
+    with atomic_path(manifest) as tmp, open(tmp, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=MANIFEST_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+    return manifest
+
+
+def read_manifest(root: str | os.PathLike) -> list[dict]:
+    """Rows of ROOT/manifest.csv as dicts (``seed``, ``n_events`` as int)."""
+    path = Path(root) / "manifest.csv"
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"{path} not found: build a dataset with `python -m e2vlib make-data --out {root}`"
+        )
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    for row in rows:
+        row["seed"], row["n_events"] = int(row["seed"]), int(row["n_events"])
+    return rows
+
+
+# --- reading -----------------------------------------------------------------------------
+
+
+class E2VDataset(Dataset):
+    """A split of an E2V dataset as a PyTorch ``Dataset``.
+
+    Items are dicts ``{"frames": float32 tensor (D, H, W) of 0/1, "voxels": float32
+    tensor (32, 32, 32), "category": str, "id": str}``. Reads e2vlib's own layout (a
+    ``manifest.csv`` in ``root``) or the authors' SynthEVox3D release (folders by ShapeNet
+    synset holding ``<scan>/events.npz`` and ``<scan>/model_normalized.npz``), whose
+    events are turned into the paper's 100 frames of 5 ms and max-pooled from 512 to
+    ``frame_size`` (256 in the paper). Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+
+    def __init__(self, root: str | os.PathLike, split: str = "train",
+                 frame_size: int | None = None, categories: Sequence[str] | None = None):
+        if split not in SPLITS:
+            raise ValueError(f"split must be one of {SPLITS}, got {split!r}")
+        self.root = Path(root)
+        self.split = split
+        if not self.root.is_dir():
+            raise FileNotFoundError(f"dataset folder {self.root} does not exist")
+        if (self.root / "manifest.csv").exists():
+            self.layout = "e2vlib"
+            rows = [r for r in read_manifest(self.root) if r["split"] == split]
+            self.items = [(r["id"], r["category"], self.root / "samples" / f"{r['id']}.npz")
+                          for r in rows]
+            stored = json.loads((self.root / "config.json").read_text())["frame_size"]
+            if frame_size not in (None, stored):
+                raise ValueError(f"{self.root} stores {stored}px frames; frame_size={frame_size}"
+                                 " would need a rebuild with --frame-size")
+            self.frame_size = stored
+        else:
+            self.layout = "synthevox3d"
+            self.items = [item for item in synthevox3d_items(self.root) if item[3] == split]
+            self.items = [(i, c, p) for i, c, p, _ in self.items]
+            self.frame_size = frame_size or 256
+        if categories is not None:
+            self.items = [it for it in self.items if it[1] in set(categories)]
+        if not self.items:
+            raise ValueError(f"{self.root}: no samples in split {split!r}")
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    @property
+    def categories(self) -> list[str]:
+        """Category of every item, in order."""
+        return [category for _, category, _ in self.items]
+
+    @property
+    def input_shape(self) -> tuple[int, int, int]:
+        """``(D, H, W)`` of the frames."""
+        return (N_FRAMES, self.frame_size, self.frame_size)
+
+    def arrays(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(frames uint8 (D, H, W), voxels bool (32, 32, 32))`` of item ``index``."""
+        sample_id, _, path = self.items[index]
+        if self.layout == "e2vlib":
+            return load_sample(path)
+        return load_synthevox3d_scan(path, self.frame_size)
+
+    def __getitem__(self, index: int) -> dict:
+        frames, voxels = self.arrays(index)
+        sample_id, category, _ = self.items[index]
+        return {
+            "frames": torch.from_numpy(frames.astype(np.float32)),
+            "voxels": torch.from_numpy(voxels.astype(np.float32)),
+            "category": category,
+            "id": sample_id,
+        }
+
+
+def synthevox3d_items(root: Path) -> list[tuple[str, str, Path, str]]:
+    """``(id, category, scan folder, split)`` for every scan of a SynthEVox3D folder.
+
+    Scans sit in ``root/<synset>/<scan>/`` (synset ids as in ShapeNet). The release has no
+    split file that we rely on, so scans are split 8:1:1 by a hash of their id (stable
+    under adding or removing other scans).
+    """
+    from e2vlib.shapes import SHAPENET_SYNSETS
+
+    items = []
+    for synset_dir in sorted(p for p in root.iterdir() if p.is_dir()):
+        category = SHAPENET_SYNSETS.get(synset_dir.name, synset_dir.name)
+        for scan in sorted(p for p in synset_dir.iterdir() if (p / "events.npz").exists()):
+            sample_id = f"{synset_dir.name}/{scan.name}"
+            bucket = int.from_bytes(hashlib.sha256(sample_id.encode()).digest()[:2], "little")
+            fraction = bucket / 65536
+            split = "train" if fraction < 0.8 else "val" if fraction < 0.9 else "test"
+            items.append((sample_id, category, scan, split))
+    if not items:
+        raise ValueError(
+            f"{root}: neither an e2vlib dataset (manifest.csv) nor a SynthEVox3D folder "
+            "(<synset>/<scan>/events.npz)"
+        )
+    return items
+
+
+SYNTHEVOX3D_SENSOR = 512  # the paper rendered 512 x 512 and scaled to 256 x 256
+
+
+def synthevox3d_time_scale(t: np.ndarray) -> float:
+    """Microseconds per unit of a SynthEVox3D time column, settled by its value range.
+
+    An orbit lasts 0.5 s, so the last time stamp tells the unit: below 10 -> seconds,
+    below 1e4 -> milliseconds, below 1e7 -> microseconds, else nanoseconds.
+    """
+    span = float(np.max(t)) if len(t) else 0.0
+    if span < 10:
+        return 1e6
+    if span < 1e4:
+        return 1e3
+    if span < 1e7:
+        return 1.0
+    return 1e-3
+
+
+def load_synthevox3d_scan(scan: Path, frame_size: int = 256) -> tuple[np.ndarray, np.ndarray]:
+    """Frames ``(100, S, S)`` uint8 and voxels ``(32, 32, 32)`` bool of one released scan.
+
+    ``events.npz``'s ``arr_0`` is an ``(N, 4)`` float array of t, x, y, p; the voxel file's
+    ``arr_0`` is the 32^3 grid.
+    """
+    from e2vlib.events import make_events, sort_events
+
+    try:
+        with np.load(scan / "events.npz", allow_pickle=False) as data:
+            table = data["arr_0"]
+        with np.load(scan / "model_normalized.npz", allow_pickle=False) as data:
+            voxels = np.asarray(data["arr_0"]).astype(bool)
+    except (zipfile.BadZipFile, EOFError, OSError, KeyError, ValueError) as err:
+        raise ValueError(f"{scan}: unreadable SynthEVox3D scan ({err})") from err
+    if table.ndim != 2 or table.shape[1] != 4:
+        raise ValueError(f"{scan}/events.npz: expected an (N, 4) array t, x, y, p, "
+                         f"got {table.shape}")
+    if voxels.shape != (32, 32, 32):
+        raise ValueError(f"{scan}/model_normalized.npz: expected 32^3 voxels, got {voxels.shape}")
+    t, x, y, p = table.T
+    scale = synthevox3d_time_scale(t)
+    try:
+        events = sort_events(make_events(x, y, np.round(t * scale), p))
+    except EventError as err:
+        raise ValueError(f"{scan}/events.npz: {err}") from err
+    size = SYNTHEVOX3D_SENSOR
+    return events_to_frames(events, (size, size), frame_size, t0_us=0), voxels

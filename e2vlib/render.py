@@ -1,0 +1,295 @@
+"""Render the paper's spiral camera orbit around an object into a grayscale video.
+
+E2V (Chen et al., ICVR 2023) rendered each ShapeNet object in Blender while the camera
+flew a spiral around it: from 2 m above to 2 m below the object, 4 m from the vertical axis
+at the ends and 6 m at mid height, always looking at the object, with an 80 mm lens on a
+36 mm sensor, a white background and a sun plus lights above and below. This module rebuilds
+that set-up with pyvista/VTK rendering off screen.
+
+Conventions used here (all lengths in metres, angles in degrees, times in microseconds):
+
+* orbit parameter ``s`` runs from 0 (first frame) to 1 (last frame);
+* height ``z(s) = 2 - 4 s`` (linear, +2 m to -2 m);
+* horizontal radius ``r(z) = 6 - z**2 / 2``: a parabola in ``z`` that is 4 m at ``z = +-2``
+  and 6 m at ``z = 0``, smooth everywhere;
+* azimuth ``phi(s) = -90 + 360 s``: one full counter-clockwise turn seen from above,
+  starting on the -y side of the object (the "front" view of Blender, looking along +y, so
+  +x is to the right in the first frame); the start is fixed so labels and views line up;
+* the camera looks at the origin with +z as its up direction, so a +z-pointing object is
+  upright in the image.
+
+Introduced in notebooks/03_simulating_events.ipynb.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+FOCAL_LENGTH_MM = 80.0
+"""Focal length of the paper's virtual camera (mm)."""
+SENSOR_SIZE_MM = 36.0
+"""Sensor width (and height: our images are square) of the virtual camera (mm)."""
+VIEW_ANGLE_DEG = math.degrees(2.0 * math.atan(0.5 * SENSOR_SIZE_MM / FOCAL_LENGTH_MM))
+"""Full view angle of an 80 mm lens on a 36 mm sensor, about 25.36 degrees."""
+AZIMUTH_START_DEG = -90.0
+"""Azimuth of the first camera position (on the -y side, looking along +y)."""
+Z_TOP_M, Z_BOTTOM_M = 2.0, -2.0
+"""Camera heights at the first and last frame (m)."""
+RADIUS_END_M, RADIUS_MID_M = 4.0, 6.0
+"""Horizontal camera radius at the ends and at mid height (m)."""
+
+_CLIPPING_RANGE = (0.1, 50.0)  # near/far planes (m); objects fit in the unit cube
+_BACKGROUND = (1.0, 1.0, 1.0)
+_MATERIAL = {"color": (0.8, 0.8, 0.8), "ambient": 0.15, "diffuse": 0.85, "specular": 0.0}
+_LUMA = np.array([0.299, 0.587, 0.114])  # ITU-R BT.601 weights, RGB -> gray
+
+
+def _check_count(name: str, value: int, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _spiral(s: np.ndarray) -> np.ndarray:
+    """Camera positions (m, shape (len(s), 3)) at orbit parameters ``s`` in [0, 1]."""
+    z = Z_TOP_M + (Z_BOTTOM_M - Z_TOP_M) * s
+    half = 0.5 * (Z_TOP_M - Z_BOTTOM_M)
+    r = RADIUS_MID_M - (RADIUS_MID_M - RADIUS_END_M) * (z / half) ** 2
+    phi = np.radians(AZIMUTH_START_DEG + 360.0 * s)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def _orbit_s(n: int) -> np.ndarray:
+    """Orbit parameters ``i / (n - 1)``; exact division, so a k-times denser sampling
+    hits the same ``s`` values bit for bit at every k-th frame."""
+    return np.arange(n, dtype=np.float64) / (n - 1)
+
+
+def orbit_cameras(n_frames: int = 120) -> np.ndarray:
+    """Camera positions of the paper's spiral orbit, shape ``(n_frames, 3)``, in metres.
+
+    Frame ``i`` sits at orbit parameter ``s = i / (n_frames - 1)``: height ``2 - 4 s``,
+    horizontal radius ``6 - z**2 / 2`` (4 m at the ends, 6 m at ``z = 0``) and azimuth
+    ``-90 + 360 s`` degrees (one counter-clockwise turn starting on the -y side). Every
+    camera looks at the origin with +z up.
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    n = _check_count("n_frames", n_frames, 2)
+    return _spiral(_orbit_s(n))
+
+
+def orbit_angles(n_frames: int = 120) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-frame ``(azimuth_deg, elevation_deg, distance_m)`` of :func:`orbit_cameras`.
+
+    Azimuth is measured counter-clockwise from +x (it runs from -90 to 270 degrees),
+    elevation is the camera's angle above the horizontal plane through the object
+    (positive while the camera is above it), distance is from the camera to the origin.
+    Each array has shape ``(n_frames,)``.
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    n = _check_count("n_frames", n_frames, 2)
+    s = _orbit_s(n)
+    pos = _spiral(s)
+    horizontal = np.hypot(pos[:, 0], pos[:, 1])
+    azimuth = AZIMUTH_START_DEG + 360.0 * s
+    elevation = np.degrees(np.arctan2(pos[:, 2], horizontal))
+    return azimuth, elevation, np.linalg.norm(pos, axis=1)
+
+
+def _n_rendered(n_frames: int, oversample: int) -> int:
+    """Frames rendered for ``oversample``: the same time span, ``oversample`` x denser."""
+    return oversample * (n_frames - 1) + 1
+
+
+def project_points(points: ArrayLike, camera_position: ArrayLike, resolution: int) -> np.ndarray:
+    """Pixel coordinates ``(m, 2)`` as ``(column, row)`` of 3-D ``points`` (m, shape (m, 3)).
+
+    Pinhole model of the render camera: at ``camera_position`` looking at the origin with +z
+    up, view angle :data:`VIEW_ANGLE_DEG`, square image of ``resolution`` pixels. Row 0 is
+    the top of the image and pixel ``(c, r)`` has its centre at ``(c, r)``, so the image
+    centre is at ``((res - 1) / 2, (res - 1) / 2)``. Points must be in front of the camera.
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    res = _check_count("resolution", resolution, 1)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    cam = np.asarray(camera_position, dtype=np.float64).reshape(3)
+    forward = -cam / np.linalg.norm(cam)
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    norm = np.linalg.norm(right)
+    if norm < 1e-9:
+        raise ValueError("camera_position must not lie on the z axis (up direction is +z)")
+    right /= norm
+    up = np.cross(right, forward)
+    rel = pts - cam
+    depth = rel @ forward
+    if np.any(depth <= 0):
+        raise ValueError("some points lie behind the camera; they have no projection")
+    focal_px = 0.5 * res / math.tan(math.radians(0.5 * VIEW_ANGLE_DEG))
+    centre = 0.5 * (res - 1)
+    col = centre + focal_px * (rel @ right) / depth
+    row = centre - focal_px * (rel @ up) / depth
+    return np.stack([col, row], axis=1)
+
+
+def pixel_motion_per_frame(
+    n_frames: int = 120,
+    resolution: int = 256,
+    oversample: int = 1,
+    points: ArrayLike | None = None,
+) -> np.ndarray:
+    """Largest image motion (pixels) of the object between consecutive rendered frames.
+
+    Projects ``points`` (default: a 9 x 9 x 9 grid filling the unit cube
+    ``[-0.5, 0.5]^3``, where normalized objects live) with every camera of the orbit as
+    :func:`render_orbit` samples it (``oversample * (n_frames - 1) + 1`` frames) and returns
+    the maximum displacement over the points for each consecutive pair, shape
+    ``(n_rendered - 1,)``. The frame rate does not enter: motion per frame depends only on
+    how densely the path is sampled. The paper's 120 frames at 256 px move parts of the
+    object by about 3 px per frame; an event simulator that interpolates linearly between
+    frames wants at most about 1 px, hence ``oversample``.
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    n = _check_count("n_frames", n_frames, 2)
+    k = _check_count("oversample", oversample, 1)
+    res = _check_count("resolution", resolution, 1)
+    if points is None:
+        g = np.linspace(-0.5, 0.5, 9)
+        points = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    cams = _spiral(_orbit_s(_n_rendered(n, k)))
+    uv = np.stack([project_points(pts, c, res) for c in cams])  # (frames, points, 2)
+    return np.linalg.norm(np.diff(uv, axis=0), axis=2).max(axis=1)
+
+
+def required_oversample(
+    n_frames: int = 120, resolution: int = 256, max_motion_px: float = 1.0
+) -> int:
+    """Smallest ``oversample`` for which :func:`pixel_motion_per_frame` stays within
+    ``max_motion_px`` pixels on every frame pair (searched up to 64).
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    if not (math.isfinite(max_motion_px) and max_motion_px > 0):
+        raise ValueError(f"max_motion_px must be a positive number, got {max_motion_px!r}")
+    worst = float(pixel_motion_per_frame(n_frames, resolution, 1).max())
+    k = max(1, math.ceil(worst / max_motion_px))  # motion shrinks about as 1/k
+    while k <= 64:
+        if pixel_motion_per_frame(n_frames, resolution, k).max() <= max_motion_px:
+            return k
+        k += 1
+    raise ValueError(f"no oversample up to 64 keeps motion within {max_motion_px} px")
+
+
+def _to_polydata(mesh):
+    """A pyvista.PolyData view of a trimesh.Trimesh or pyvista.PolyData (never modified)."""
+    import pyvista as pv
+
+    if isinstance(mesh, pv.PolyData):
+        poly = mesh.copy(deep=False)
+    elif hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        if faces.ndim != 2 or faces.shape[1] != 3:
+            raise ValueError(f"mesh.faces must be (m, 3) triangles, got shape {faces.shape}")
+        cells = np.hstack([np.full((len(faces), 1), 3, dtype=np.int64), faces]).ravel()
+        poly = pv.PolyData(vertices, cells)
+    else:
+        raise ValueError(
+            f"mesh must be a trimesh.Trimesh or pyvista.PolyData, got {type(mesh).__name__}"
+        )
+    if poly.n_points == 0 or poly.n_cells == 0:
+        raise ValueError("mesh is empty (no vertices or faces); nothing to render")
+    if not np.all(np.isfinite(poly.points)):
+        raise ValueError("mesh has NaN/inf vertex coordinates")
+    return poly
+
+
+def _add_lights(plotter) -> None:
+    """A sun-like directional light plus weaker lights straight above and below."""
+    import pyvista as pv
+
+    for position, intensity in (((2.0, -1.0, 3.0), 0.75), ((0.0, 0.0, 1.0), 0.35),
+                                ((0.0, 0.0, -1.0), 0.25)):
+        light = pv.Light(position=position, focal_point=(0.0, 0.0, 0.0),
+                         light_type="scene light", intensity=intensity)
+        light.positional = False  # directional: parallel rays, like the sun
+        plotter.add_light(light)
+
+
+def _aim(camera, position: np.ndarray) -> None:
+    """Put the VTK camera at ``position`` looking at the origin, +z up, paper's lens."""
+    camera.position = tuple(float(v) for v in position)
+    camera.focal_point = (0.0, 0.0, 0.0)
+    camera.up = (0.0, 0.0, 1.0)
+    camera.view_angle = VIEW_ANGLE_DEG
+    camera.clipping_range = _CLIPPING_RANGE
+
+
+def render_orbit(
+    mesh,
+    n_frames: int = 120,
+    fps: float = 240,
+    resolution: int = 256,
+    oversample: int = 1,
+    anti_aliasing: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Render ``mesh`` along the spiral orbit; return ``(video, t_us)``.
+
+    ``mesh`` is a ``trimesh.Trimesh`` or ``pyvista.PolyData`` in metres (not re-normalized
+    here). One off-screen plotter (``resolution`` x ``resolution`` px, view angle
+    :data:`VIEW_ANGLE_DEG`, white background, grey diffuse material, a sun-like directional
+    light plus lights above and below) is reused for every frame and always closed.
+
+    ``video`` has shape ``(n, resolution, resolution)``, float32 gray in [0, 1] holding
+    8-bit levels (``k / 255``), indexed ``[frame, row, column]`` with row 0 at the top;
+    ``t_us[i] = round(i * 1e6 / (oversample * fps))`` (int64 microseconds).
+    With ``oversample = 1``, ``n = n_frames`` frames at ``fps``. With ``oversample = k``, the
+    same time span is sampled ``k`` times more densely: ``n = k * (n_frames - 1) + 1``
+    frames at ``k * fps`` along the same spiral, so ``video[::k]`` equals the plain render
+    and an event simulator sees the object move at most about 1 px per frame (see
+    :func:`pixel_motion_per_frame`). ``anti_aliasing`` uses VTK's supersampling, which
+    smooths edges so they do not flicker as the object turns.
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    n = _check_count("n_frames", n_frames, 2)
+    res = _check_count("resolution", resolution, 1)
+    k = _check_count("oversample", oversample, 1)
+    if not (isinstance(fps, (int, float, np.integer, np.floating)) and math.isfinite(fps)
+            and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    poly = _to_polydata(mesh)
+    n_out = _n_rendered(n, k)
+    cameras = _spiral(_orbit_s(n_out))
+    t_us = np.round(np.arange(n_out) * 1e6 / (k * float(fps))).astype(np.int64)
+
+    import pyvista as pv
+
+    video = np.empty((n_out, res, res), dtype=np.float32)
+    plotter = pv.Plotter(off_screen=True, notebook=False, window_size=(res, res),
+                         lighting="none")
+    try:
+        if anti_aliasing:
+            plotter.enable_anti_aliasing("ssaa")
+        plotter.set_background(_BACKGROUND)
+        plotter.add_mesh(poly, smooth_shading=False, **_MATERIAL)
+        _add_lights(plotter)
+        for i, position in enumerate(cameras):
+            _aim(plotter.camera, position)
+            if i == 0:  # pyvista sets itself up on the first render and may move the camera
+                plotter.screenshot(return_img=True)
+                _aim(plotter.camera, position)
+            plotter.render()
+            rgb = plotter.screenshot(return_img=True)
+            gray = np.rint(rgb[..., :3].astype(np.float64) @ _LUMA)
+            video[i] = gray.astype(np.float32) / np.float32(255.0)
+    finally:
+        plotter.close()
+    return video, t_us

@@ -1,0 +1,195 @@
+"""Analytic checks of the orbit and pixel checks of small off-screen renders (e2vlib.render)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from e2vlib.render import (
+    VIEW_ANGLE_DEG,
+    orbit_angles,
+    orbit_cameras,
+    pixel_motion_per_frame,
+    project_points,
+    render_orbit,
+    required_oversample,
+)
+
+RES = 48
+
+
+def test_view_angle_is_80mm_lens_on_36mm_sensor():
+    assert VIEW_ANGLE_DEG == pytest.approx(25.3608, abs=1e-3)
+
+
+def test_orbit_spiral_shape():
+    cams = orbit_cameras(121)
+    assert cams.shape == (121, 3) and cams.dtype == np.float64
+    z = cams[:, 2]
+    assert z[0] == 2.0 and z[-1] == -2.0 and z[60] == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_allclose(np.diff(z), -4.0 / 120)  # linear descent
+    radius = np.hypot(cams[:, 0], cams[:, 1])
+    np.testing.assert_allclose(radius, 6.0 - z**2 / 2)
+    assert radius[0] == pytest.approx(4.0) and radius[-1] == pytest.approx(4.0)
+    assert radius[60] == pytest.approx(6.0) and radius.max() == pytest.approx(6.0)
+    # starts (and ends) on the -y side; one full counter-clockwise turn
+    np.testing.assert_allclose(cams[0], [0.0, -4.0, 2.0], atol=1e-12)
+    np.testing.assert_allclose(cams[-1], [0.0, -4.0, -2.0], atol=1e-12)
+    azimuth = np.unwrap(np.arctan2(cams[:, 1], cams[:, 0]))
+    assert np.all(np.diff(azimuth) > 0)
+    assert azimuth[-1] - azimuth[0] == pytest.approx(2 * math.pi)
+
+
+def test_orbit_angles_and_distance():
+    azimuth, elevation, distance = orbit_angles(5)
+    np.testing.assert_allclose(azimuth, [-90, 0, 90, 180, 270])
+    edge = math.degrees(math.atan2(2, 4))  # 26.57 degrees above / below
+    np.testing.assert_allclose(elevation, [edge, math.degrees(math.atan2(1, 5.5)), 0,
+                                           -math.degrees(math.atan2(1, 5.5)), -edge])
+    np.testing.assert_allclose(distance, np.linalg.norm(orbit_cameras(5), axis=1))
+    assert distance[0] == pytest.approx(math.sqrt(20)) and distance[2] == pytest.approx(6.0)
+
+
+def test_orbit_needs_two_frames():
+    with pytest.raises(ValueError, match="n_frames"):
+        orbit_cameras(1)
+
+
+def test_project_points_orientation():
+    cam = orbit_cameras(3)[0]  # on the -y side, above the object
+    centre = (RES - 1) / 2
+    uv = project_points([[0, 0, 0], [0.3, 0, 0], [0, 0, 0.3]], cam, RES)
+    np.testing.assert_allclose(uv[0], [centre, centre])
+    assert uv[1, 0] > centre + 1 and uv[1, 1] == pytest.approx(centre)  # +x is to the right
+    assert uv[2, 1] < centre - 1  # +z is up (smaller row)
+    # 1 m at 6 m distance spans res / (2 tan(12.68 deg)) / 6 pixels
+    uv = project_points([[0.5, 0, 0]], [0, -6.0, 0], 256)
+    focal = 128 / math.tan(math.radians(VIEW_ANGLE_DEG / 2))
+    assert uv[0, 0] - 127.5 == pytest.approx(focal * 0.5 / 6)
+
+
+def test_pixel_motion_shrinks_with_oversampling():
+    plain = pixel_motion_per_frame(120, 256)
+    dense = pixel_motion_per_frame(120, 256, oversample=4)
+    assert plain.shape == (119,) and dense.shape == (4 * 119,)
+    assert plain.max() > 3.0  # the paper's 240 fps orbit moves > 1 px per frame at 256 px
+    # a frame step is the sum of its 4 sub-steps: at least a quarter, about a quarter
+    assert plain.max() / 4 <= dense.max() <= 1.05 * plain.max() / 4
+    assert pixel_motion_per_frame(120, 128).max() == pytest.approx(plain.max() / 2)
+    k = required_oversample(120, 256, max_motion_px=1.0)
+    assert pixel_motion_per_frame(120, 256, k).max() <= 1.0
+    assert pixel_motion_per_frame(120, 256, k - 1).max() > 1.0
+
+
+def upright_cone() -> trimesh.Trimesh:
+    """A cone with its base at z = -0.5 and its tip at z = +0.5."""
+    cone = trimesh.creation.cone(radius=0.4, height=1.0, sections=24)
+    cone.apply_translation([0, 0, -0.5])
+    return cone
+
+
+@pytest.fixture(scope="module")
+def cone_video():
+    return render_orbit(upright_cone(), n_frames=3, fps=240, resolution=RES)
+
+
+def test_video_shape_dtype_range_and_times(cone_video):
+    video, t_us = cone_video
+    assert video.shape == (3, RES, RES) and video.dtype == np.float32
+    assert video.min() >= 0.0 and video.max() <= 1.0
+    assert t_us.dtype == np.int64 and t_us.tolist() == [0, 4167, 8333]
+    # 8-bit gray levels
+    np.testing.assert_array_equal(video * 255, np.rint(video * 255))
+
+
+def test_background_white_object_in_centre(cone_video):
+    video, _ = cone_video
+    for frame in video:
+        assert np.all(frame[[0, 0, -1, -1], [0, -1, 0, -1]] == 1.0)  # corners: background
+        assert frame[RES // 2 + 4, RES // 2] < 0.9  # the cone's body covers the centre
+        dark = frame < 0.95
+        rows, cols = np.nonzero(dark)
+        assert abs(cols.mean() - (RES - 1) / 2) < 2.5  # symmetric about the vertical axis
+
+
+def test_cone_is_upright_from_above_and_below(cone_video):
+    video, _ = cone_video
+    cams = orbit_cameras(3)
+    for frame, cam in zip(video, cams, strict=True):
+        dark = frame < 0.95
+        top, bottom = dark[: RES // 2].sum(), dark[RES // 2:].sum()
+        assert top < bottom  # narrow tip at the top of the image, wide base below
+        tip_row = project_points([[0, 0, 0.5]], cam, RES)[0, 1]
+        first_dark_row = np.flatnonzero(dark.any(axis=1))[0]
+        assert abs(first_dark_row - tip_row) <= 2
+
+
+def test_off_centre_sphere_lands_where_projected():
+    centre = np.array([0.3, 0.2, 0.25])
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
+    ball.apply_translation(centre)
+    video, _ = render_orbit(ball, n_frames=4, resolution=64)
+    for frame, cam in zip(video, orbit_cameras(4), strict=True):
+        rows, cols = np.nonzero(frame < 0.99)
+        col, row = project_points([centre], cam, 64)[0]
+        assert abs(cols.mean() - col) < 1.0 and abs(rows.mean() - row) < 1.0
+
+
+def test_render_is_deterministic_and_accepts_polydata(cone_video):
+    import pyvista as pv
+
+    cone = upright_cone()
+    again, _ = render_orbit(cone, n_frames=3, resolution=RES)
+    np.testing.assert_array_equal(again, cone_video[0])
+    faces = np.hstack([np.full((len(cone.faces), 1), 3), cone.faces]).ravel()
+    poly = pv.PolyData(np.asarray(cone.vertices), faces)
+    from_poly, _ = render_orbit(poly, n_frames=3, resolution=RES)
+    np.testing.assert_array_equal(from_poly, cone_video[0])
+
+
+def test_oversampling_samples_the_same_path_densely(cone_video):
+    video, t_us = render_orbit(upright_cone(), n_frames=3, fps=240, resolution=RES,
+                               oversample=2)
+    assert video.shape == (5, RES, RES)
+    assert t_us.tolist() == [0, 2083, 4167, 6250, 8333]
+    np.testing.assert_array_equal(video[::2], cone_video[0])
+    assert not np.array_equal(video[1], video[0])
+
+
+def test_plotter_closed_when_rendering_fails(monkeypatch):
+    import pyvista as pv
+
+    made = []
+
+    class FailingPlotter(pv.Plotter):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+        def add_mesh(self, *args, **kwargs):
+            raise RuntimeError("boom")
+
+    monkeypatch.setattr(pv, "Plotter", FailingPlotter)
+    with pytest.raises(RuntimeError, match="boom"):
+        render_orbit(upright_cone(), n_frames=2, resolution=16)
+    assert len(made) == 1 and made[0].render_window is None  # closed
+
+
+@pytest.mark.parametrize(
+    "mesh, kwargs, match",
+    [
+        ("not a mesh", {}, "trimesh.Trimesh or pyvista.PolyData"),
+        (trimesh.Trimesh(), {}, "empty"),
+        (None, {"n_frames": 1}, "n_frames"),
+        (None, {"resolution": 0}, "resolution"),
+        (None, {"oversample": 0}, "oversample"),
+        (None, {"fps": 0}, "fps"),
+    ],
+)
+def test_bad_input(mesh, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        render_orbit(upright_cone() if mesh is None else mesh, **kwargs)
+
