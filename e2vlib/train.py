@@ -125,7 +125,7 @@ def _lr_at(recipe: Recipe, epoch: int, epochs: int) -> float:
     if not recipe.cosine or epochs <= 1:
         return recipe.lr
     floor = 0.05 * recipe.lr
-    return floor + 0.5 * (recipe.lr - floor) * (1 + np.cos(np.pi * epoch / (epochs - 1)))
+    return float(floor + 0.5 * (recipe.lr - floor) * (1 + np.cos(np.pi * epoch / (epochs - 1))))
 
 
 def fit(
@@ -212,10 +212,15 @@ def fit(
             optimizer.step()
             losses.append(loss.item())
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
+        if world > 1:
+            # DDP keeps parameters equal; buffers (BatchNorm running statistics) are only
+            # copied from rank 0 at the start of each forward, so align them once more.
+            for buffer in model.buffers():
+                dist.broadcast(buffer, src=0)
         val = _validate(model, val_set, device, loss_fn)
         record = {"epoch": epoch + 1, "train_loss": float(np.mean(losses)),
                   "val_loss": val["loss"], "val_iou": val["iou"],
-                  "lr": optimizer.param_groups[0]["lr"],
+                  "lr": float(optimizer.param_groups[0]["lr"]),
                   "seconds": time.perf_counter() - started}
         history.append(record)
         improved = record["val_iou"] > best_iou
