@@ -39,6 +39,114 @@ def _make_data(args: argparse.Namespace) -> int:
     return 0
 
 
+def _train(args: argparse.Namespace) -> int:
+    import json
+    from pathlib import Path
+
+    from e2vlib.data import E2VDataset
+    from e2vlib.model import build_e2v, load_checkpoint
+    from e2vlib.train import fit, init_distributed_from_env
+
+    init_distributed_from_env()
+    train_set, val_set = E2VDataset(args.data, "train"), E2VDataset(args.data, "val")
+    config_path = Path(args.data) / "config.json"
+    metadata = {"data_config": json.loads(config_path.read_text())} if config_path.exists() \
+        else {}
+    if args.resume:
+        model = load_checkpoint(Path(args.out) / "last.pt").train()
+    else:
+        model = build_e2v(args.preset, seed=args.seed, input_shape=train_set.input_shape)
+    overrides = {k: v for k, v in (("lr", args.lr), ("batch_size", args.batch_size))
+                 if v is not None}
+    history = fit(model, train_set, val_set, args.out, recipe=args.recipe, epochs=args.epochs,
+                  device=args.device, seed=args.seed, resume=args.resume, metadata=metadata,
+                  **overrides)
+    if history:
+        best = max(history, key=lambda h: h["val_iou"])
+        print(f"best validation IoU@0.3 {best['val_iou']:.3f} at epoch {best['epoch']}; "
+              f"checkpoints in {args.out}")
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    import json
+    from pathlib import Path
+
+    from e2vlib.data import E2VDataset
+    from e2vlib.io import atomic_path
+    from e2vlib.model import load_checkpoint
+    from e2vlib.train import evaluate, format_table
+
+    model = load_checkpoint(args.checkpoint)
+    data = E2VDataset(args.data, args.split)
+    try:
+        train = E2VDataset(args.data, "train")
+    except ValueError:
+        train = None
+    result = evaluate(model, data, train_data=train, device=args.device,
+                      fscore_points=args.fscore_points)
+    print(format_table(result))
+    if args.json:
+        path = Path(args.json)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            tmp.write_text(json.dumps(result, indent=1) + "\n")
+        print(f"wrote {path}")
+    return 0
+
+
+def _reconstruct(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    import numpy as np
+    import torch
+
+    from e2vlib.data import BuildConfig, events_to_model_input, mesh_to_sample
+    from e2vlib.io import atomic_path, load_events
+    from e2vlib.model import load_checkpoint, read_checkpoint
+    from e2vlib.shapes import load_mesh
+    from e2vlib.train import predict
+
+    model = load_checkpoint(args.checkpoint)
+    depth, frame_size, _ = model.input_shape
+    outputs = {}
+    if args.mesh:
+        stored = read_checkpoint(args.checkpoint).get("metadata", {}).get("data_config", {})
+        config = BuildConfig(
+            categories=("custom",), per_category=1, frame_size=frame_size,
+            resolution=int(stored.get("resolution", 2 * frame_size)),
+            oversample=stored.get("oversample"), contrast=float(stored.get("contrast", 0.2)))
+        sample = mesh_to_sample(load_mesh(args.mesh), config, seed=args.seed)
+        frames, outputs["voxels"] = sample.frames, sample.voxels
+    else:
+        events, sensor_size = load_events(args.events)
+        frames = events_to_model_input(events, sensor_size, frame_size)
+    if frames.shape[0] != depth:
+        raise SystemExit(f"the model expects {depth} frames, the input gives {frames.shape[0]}")
+    probabilities = predict(model, torch.from_numpy(frames)[None], args.device)[0].numpy()
+    outputs["probabilities"] = probabilities.astype(np.float32)
+    outputs["frames"] = frames
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, **outputs)
+    print(f"wrote {out}: occupied voxels at 0.3: {int((probabilities >= 0.3).sum())}")
+    if "voxels" in outputs:
+        from e2vlib.metrics import iou
+
+        print(f"IoU@0.3 against the mesh's own voxels: {iou(probabilities, outputs['voxels']):.3f}")
+    if args.png:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from e2vlib.viz import plot_reconstruction
+
+        fig = plot_reconstruction(probabilities, outputs.get("voxels"), threshold=0.3)
+        fig.savefig(args.png, dpi=120, bbox_inches="tight")
+        print(f"wrote {args.png}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m e2vlib",
@@ -64,6 +172,43 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=1, help="parallel processes (default 1)")
     p.add_argument("--shard", default="0/1", help="build only shard i of n, e.g. 2/8")
     p.set_defaults(func=_make_data)
+
+    p = sub.add_parser("train", help="train E2V on a dataset (writes best.pt, last.pt, "
+                       "history.json); run under torchrun for several processes/GPUs")
+    p.add_argument("--data", required=True, help="dataset folder (e2vlib or SynthEVox3D)")
+    p.add_argument("--preset", default="tiny", help="model preset: tiny, tiny2d, paper")
+    p.add_argument("--out", required=True, help="output folder for checkpoints")
+    p.add_argument("--recipe", default="tiny", help="training recipe: tiny or paper")
+    p.add_argument("--epochs", type=int, help="override the recipe's epochs")
+    p.add_argument("--lr", type=float, help="override the recipe's learning rate")
+    p.add_argument("--batch-size", type=int, help="override the recipe's batch size")
+    p.add_argument("--resume", action="store_true", help="continue from OUT/last.pt")
+    p.add_argument("--device", default="auto", help="auto (default), cpu, cuda, cuda:1 ...")
+    p.add_argument("--seed", type=int, default=0, help="seed for weights and shuffling")
+    p.set_defaults(func=_train)
+
+    p = sub.add_parser("evaluate", help="IoU and F-score per category, as in the paper's "
+                       "Tables I and II, with mean-shape baselines")
+    p.add_argument("--checkpoint", required=True, help="a checkpoint written by train")
+    p.add_argument("--data", required=True, help="dataset folder")
+    p.add_argument("--split", default="test", choices=("train", "val", "test"))
+    p.add_argument("--json", help="write the results as JSON here")
+    p.add_argument("--device", default="auto")
+    p.add_argument("--fscore-points", type=int, default=8192,
+                   help="surface points per grid for the F-score (default 8192)")
+    p.set_defaults(func=_evaluate)
+
+    p = sub.add_parser("reconstruct", help="reconstruct one object from a mesh (through the "
+                       "dataset pipeline) or from an event file")
+    p.add_argument("--checkpoint", required=True)
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument("--mesh", help="OBJ/PLY/STL/OFF/GLB file: rendered, simulated, framed")
+    source.add_argument("--events", help="event file (.npz, .txt, .h5, .aedat4)")
+    p.add_argument("--out", required=True, help="output .npz (probabilities, frames, voxels)")
+    p.add_argument("--png", help="also save a picture of the reconstruction here")
+    p.add_argument("--device", default="auto")
+    p.add_argument("--seed", type=int, default=0, help="simulator seed (mesh input)")
+    p.set_defaults(func=_reconstruct)
     return parser
 
 

@@ -147,6 +147,25 @@ def events_to_frames(events: np.ndarray, sensor_size: tuple[int, int], frame_siz
     return downsample(frames, width // frame_size)
 
 
+def events_to_model_input(events: np.ndarray, sensor_size: tuple[int, int],
+                          frame_size: int) -> np.ndarray:
+    """100 binary 5 ms frames from the first event, fitted to ``frame_size`` square.
+
+    For recordings of any sensor size: the frames are centre-cropped to the largest
+    square whose side is a multiple of ``frame_size`` and max-pooled down to it. Returns
+    uint8 ``(100, frame_size, frame_size)``. Introduced in notebooks/07_evaluation.ipynb.
+    """
+    width, height = sensor_size
+    factor = min(width, height) // frame_size
+    if factor < 1:
+        raise ValueError(f"a {width}x{height} sensor is smaller than frame_size {frame_size}")
+    t0 = int(events["t"][0]) if len(events) else 0
+    frames = accumulate(events, sensor_size, dt_us=DT_US, t0_us=t0, n_frames=N_FRAMES)
+    side = factor * frame_size
+    top, left = (height - side) // 2, (width - side) // 2
+    return downsample(frames[:, top:top + side, left:left + side], factor)
+
+
 def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     """Run one mesh through the whole pipeline: voxels, orbit video, events, frames.
 

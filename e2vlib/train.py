@@ -140,6 +140,7 @@ def fit(
     resume: bool = False,
     progress: bool = True,
     on_epoch: Callable[[list[dict]], None] | None = None,
+    metadata: dict | None = None,
     **recipe_overrides,
 ) -> list[dict]:
     """Train ``model`` with AdamW and binary cross entropy on logits; return the history.
@@ -152,7 +153,8 @@ def fit(
     the history. ``resume=True`` continues exactly from ``last.pt``. Under ``torchrun``
     the model is wrapped in DistributedDataParallel and each process trains on its share
     of every batch's samples; only rank 0 writes files. ``on_epoch(history)`` is called
-    after each epoch (live plots). Introduced in notebooks/06_training.ipynb.
+    after each epoch (live plots). ``metadata`` (plain dict, e.g. the dataset's build
+    settings) is stored in the checkpoints. Introduced in notebooks/06_training.ipynb.
     """
     from tqdm.auto import tqdm
 
@@ -228,7 +230,8 @@ def fit(
         if rank == 0:
             extra = {"optimizer": optimizer.state_dict(), "epoch": epoch,
                      "best_iou": best_iou, "history": history, "recipe": asdict(recipe),
-                     "torch_rng": torch.get_rng_state(), "seed": seed}
+                     "torch_rng": torch.get_rng_state(), "seed": seed,
+                     "metadata": metadata or {}}
             save_checkpoint(out_dir / "last.pt", model, **extra)
             if improved:
                 save_checkpoint(out_dir / "best.pt", model, **extra)

@@ -1,0 +1,418 @@
+"""Occupancy grids: meshes to solid voxels, and the binvox file format.
+
+A voxel grid here is a ``bool`` array ``(R, R, R)`` indexed ``[i, j, k] = (x, y, z)`` that
+covers the cube ``[-0.5, 0.5]^3`` (metres, the normalized object frame). Voxel ``i`` along
+x spans ``[-0.5 + i / R, -0.5 + (i + 1) / R)``, so its centre is at ``-0.5 + (i + 0.5) / R``.
+Grids are *solid* (interior filled), like the ShapeNetVox32 / Pix2Vox labels the paper
+trains on.
+
+Introduced in notebooks/04_building_the_dataset.ipynb.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import trimesh
+from scipy import ndimage
+
+# A tiny, irrational-looking offset of the ray positions (in voxels) so that no ray passes
+# exactly through a mesh edge or vertex placed on a "nice" coordinate (e.g. the diagonal of
+# a box face through voxel centres). It moves rays by about a millionth of a voxel.
+_RAY_JITTER = (0.7071067811865476e-6, 0.3183098861837907e-6)
+
+# Surface sample spacing in voxels: every surface point lies within about this distance of
+# a sample point.
+_SURFACE_SPACING = 0.35
+
+
+class VoxelError(ValueError):
+    """A voxel grid or binvox file is malformed (wrong shape, dtype, header or data)."""
+
+
+# --------------------------------------------------------------------------- voxelize
+
+
+def _check_mesh(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Return the mesh triangles as a float64 array (F, 3, 3), or raise ValueError."""
+    if isinstance(mesh, trimesh.Scene):
+        raise ValueError(
+            "voxelize needs a single trimesh.Trimesh, got a Scene; merge it first with "
+            "e2vlib.shapes.load_mesh(path) or scene.to_geometry()"
+        )
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise ValueError(f"voxelize needs a trimesh.Trimesh, got {type(mesh).__name__}")
+    if len(mesh.faces) == 0:
+        raise ValueError("voxelize got a mesh with no faces; nothing to voxelize")
+    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
+    if not np.all(np.isfinite(tri)):
+        raise ValueError("mesh has NaN/inf vertex coordinates; clean the mesh first")
+    return tri
+
+
+def _check_resolution(resolution: int) -> int:
+    if isinstance(resolution, bool) or not isinstance(resolution, int | np.integer):
+        raise ValueError(f"resolution must be a positive int, got {resolution!r}")
+    if not 1 <= int(resolution) <= 1024:
+        raise ValueError(f"resolution must be in [1, 1024], got {resolution}")
+    return int(resolution)
+
+
+def _ray_windings(tri: np.ndarray, resolution: int, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """Winding numbers of all voxel centres from rays along ``+axis`` and ``-axis``.
+
+    For every column of voxel centres parallel to ``axis`` a ray is cast through the column
+    and its crossings with the triangles are found. A crossing counts +1 where the surface
+    is left (normal along the ray) and -1 where it is entered. The winding number of a
+    centre seen along ``+axis`` is the sum over crossings beyond it; along ``-axis``, over
+    crossings before it (with the sign flipped). For a closed, consistently oriented mesh
+    both equal the true winding number: 1 inside, 0 outside, 2 where parts overlap.
+
+    Returns two int arrays ``(R, R, R)`` indexed ``[x, y, z]``.
+    """
+    r = resolution
+    # Cyclic permutation (right-handed) so the ray axis becomes the last coordinate "w".
+    perm = [(axis + 1) % 3, (axis + 2) % 3, axis]
+    t = tri[:, :, perm]
+    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    # Twice the signed area of the projection onto (u, v); its sign is the sign of the
+    # normal's w component.
+    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    keep = np.abs(area2) > 1e-14
+    a, b, c, area2 = a[keep], b[keep], c[keep], area2[keep]
+
+    # Column index ranges covered by each projected triangle (in voxel units).
+    uv = np.stack([a[:, :2], b[:, :2], c[:, :2]], axis=1)  # (F, 3, 2)
+    g = (uv + 0.5) * r - 0.5  # coordinates in which column centres are integers
+    jitter = np.asarray(_RAY_JITTER)
+    lo = np.ceil(g.min(axis=1) - jitter).astype(np.int64)
+    hi = np.floor(g.max(axis=1) - jitter).astype(np.int64)
+    lo = np.clip(lo, 0, r)
+    hi = np.clip(hi, -1, r - 1)
+    n = np.maximum(hi - lo + 1, 0)
+    count = n[:, 0] * n[:, 1]
+    total = int(count.sum())
+    d = np.zeros(r * r * (r + 1), dtype=np.int64)
+    if total:
+        fid = np.repeat(np.arange(len(count)), count)
+        local = np.arange(total) - np.repeat(np.cumsum(count) - count, count)
+        ci = lo[fid, 0] + local // n[fid, 1]
+        cj = lo[fid, 1] + local % n[fid, 1]
+        pu = -0.5 + (ci + 0.5 + jitter[0]) / r
+        pv = -0.5 + (cj + 0.5 + jitter[1]) / r
+        fa, fb, fc = a[fid], b[fid], c[fid]
+        # Barycentric weights from edge functions, scaled by the signed area.
+        wa = (fb[:, 0] - pu) * (fc[:, 1] - pv) - (fb[:, 1] - pv) * (fc[:, 0] - pu)
+        wb = (fc[:, 0] - pu) * (fa[:, 1] - pv) - (fc[:, 1] - pv) * (fa[:, 0] - pu)
+        wc = (fa[:, 0] - pu) * (fb[:, 1] - pv) - (fa[:, 1] - pv) * (fb[:, 0] - pu)
+        s = np.sign(area2[fid])
+        inside = (wa * s >= 0) & (wb * s >= 0) & (wc * s >= 0)
+        ci, cj, s = ci[inside], cj[inside], s[inside]
+        inv = 1.0 / area2[fid][inside]
+        w = wa[inside] * fa[inside, 2] + wb[inside] * fb[inside, 2] + wc[inside] * fc[inside, 2]
+        w = w * inv
+        # m = number of voxel centres below the crossing along the column.
+        m = np.clip(np.ceil((w + 0.5) * r - 0.5), 0, r).astype(np.int64)
+        d = np.bincount((ci * r + cj) * (r + 1) + m, weights=s, minlength=d.size)
+        d = np.rint(d).astype(np.int64)
+    d = d.reshape(r, r, r + 1)
+    below = np.cumsum(d, axis=2)[:, :, :r]  # signed crossings at or below each centre
+    up = d.sum(axis=2, keepdims=True) - below  # crossings beyond the centre, +axis ray
+    down = -below  # crossings before the centre, seen by a ray towards -axis
+    # Undo the permutation: array axes are currently (u, v, w) = perm.
+    inverse = np.argsort(perm)
+    return up.transpose(inverse), down.transpose(inverse)
+
+
+def _surface_points(tri: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points covering every triangle at spacing about ``_SURFACE_SPACING`` voxels.
+
+    Each triangle is swept by rows parallel to its longest edge ``BC``, from the opposite
+    vertex ``A`` (a point) to ``BC`` itself, rows and points ``spacing`` apart, so slivers
+    cost few points. Returns ``(points, inward)``, both ``(N, 3)``: the points (pulled a hair
+    towards the triangle's centroid, so a point on a box edge belongs to the box's own
+    voxels) and unit vectors against the face normals (inward for an outward-facing mesh).
+    """
+    spacing = _SURFACE_SPACING / resolution
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    norm = np.linalg.norm(normal, axis=1)
+    ok = norm > 1e-18
+    tri, normal, norm = tri[ok], normal[ok], norm[ok]
+    inward = -normal / norm[:, None]
+    centroid = tri.mean(axis=1)
+    # put the vertex opposite the longest edge first
+    opposite = np.stack(
+        [np.linalg.norm(tri[:, (k + 2) % 3] - tri[:, (k + 1) % 3], axis=1) for k in range(3)],
+        axis=1,
+    )
+    first = np.argmax(opposite, axis=1)
+    rows = np.arange(len(tri))
+    a = tri[rows, first]
+    b = tri[rows, (first + 1) % 3]
+    c = tri[rows, (first + 2) % 3]
+    bc_len = opposite[rows, first]
+    height = norm / np.maximum(bc_len, 1e-300)
+    n_rows = np.ceil(height / spacing).astype(np.int64) + 1  # rows at s = k / (n_rows - 1)
+    # (triangle, row) pairs
+    f_row = np.repeat(rows, n_rows)
+    k = np.arange(len(f_row)) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
+    denom = np.maximum(n_rows[f_row] - 1, 1)
+    s_row = k / denom
+    n_pts = np.ceil(s_row * bc_len[f_row] / spacing).astype(np.int64) + 1
+    # (triangle, row, point) triples
+    fid = np.repeat(f_row, n_pts)
+    srow = np.repeat(s_row, n_pts)
+    m = np.arange(len(fid)) - np.repeat(np.cumsum(n_pts) - n_pts, n_pts)
+    t = m / np.maximum(np.repeat(n_pts, n_pts) - 1, 1)
+    fa, fb, fc = a[fid], b[fid], c[fid]
+    pts = fa + srow[:, None] * ((fb - fa) + t[:, None] * (fc - fb))
+    pts = pts + 1e-6 * (centroid[fid] - pts)
+    return pts, inward[fid]
+
+
+def _voxel_index(pts: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """Integer voxel indices ``(N, 3)`` of points and a mask of those inside the grid."""
+    idx = np.floor((pts + 0.5) * resolution).astype(np.int64)
+    return idx, np.all((idx >= 0) & (idx < resolution), axis=1)
+
+
+def _thin_surface(solid: np.ndarray, tri: np.ndarray, resolution: int) -> np.ndarray:
+    """Voxels the surface passes through where ``solid`` has nothing just beneath it.
+
+    A surface sample whose points half a voxel and one voxel further inside both fall in
+    empty voxels belongs to a part too thin to hold a voxel centre (a chair leg, a panel):
+    its own voxel is returned. Elsewhere the solid already covers the surface.
+    """
+    pitch = 1.0 / resolution
+    pts, inward = _surface_points(tri, resolution)
+    # a hair inwards, so a face lying on a voxel boundary marks the voxel behind it
+    own, ok = _voxel_index(pts + (1e-6 * pitch) * inward, resolution)
+    covered = np.zeros(len(pts), dtype=bool)
+    for depth in (0.5, 1.0):
+        idx, inside = _voxel_index(pts + (depth * pitch) * inward, resolution)
+        hit = np.zeros(len(pts), dtype=bool)
+        hit[inside] = solid[idx[inside, 0], idx[inside, 1], idx[inside, 2]]
+        covered |= hit
+    own = own[ok & ~covered]
+    out = np.zeros_like(solid)
+    out[own[:, 0], own[:, 1], own[:, 2]] = True
+    return out
+
+
+def voxelize(mesh: trimesh.Trimesh, resolution: int = 32) -> np.ndarray:
+    """Solid occupancy grid of a mesh over the cube ``[-0.5, 0.5]^3``.
+
+    Returns a ``bool`` array ``(resolution,) * 3`` indexed ``[x, y, z]``; voxel ``i`` along x
+    has its centre at ``-0.5 + (i + 0.5) / resolution`` (metres in the normalized frame).
+    The mesh is **not** re-normalized: normalize it first (``e2vlib.shapes.normalize_mesh``);
+    parts outside the cube are clipped away (they still count when deciding what lies inside).
+
+    A voxel is occupied when any of these hold:
+
+    1. its centre is inside the mesh. For a watertight mesh this is the non-zero winding
+       rule along rays parallel to z, so overlapping closed parts (a concatenation of
+       primitives) count as their union. For a mesh that is not watertight, rays are cast
+       from the centre along +x, -x, +y, -y, +z, -z and the centre is inside when at least 4
+       of the 6 see a non-zero winding number: a missing face or a small hole then leaves
+       the interior filled, while open space next to an opening stays empty;
+    2. the surface passes through it where rule 1 found no occupied voxel half a voxel and
+       one voxel beneath the surface (surface sampled about every third of a voxel). This
+       keeps parts thinner than a voxel, such as chair legs or a display panel, which
+       centre sampling would break up or lose (binvox's ShapeNetVox32 labels keep them
+       too), without fattening thick parts by a layer of surface voxels;
+    3. it is empty but enclosed by occupied voxels (cavities are filled: labels are solid).
+
+    A face lying exactly on a voxel boundary belongs to the voxel on its inner side. Normals
+    are taken to point outwards; a watertight mesh that is inside-out is flipped first.
+    For a mesh that is not watertight the guarantee is weaker: a closed mesh with one face
+    (or a few) removed gives the same grid as the closed mesh, while a surface with no
+    inside at all (a single sheet) gives just its surface voxels.
+
+    Known answers (see tests/test_voxels.py): a centred box of half-size 0.25 gives exactly
+    the central 16^3 block at resolution 32; a sphere of radius 0.5 fills about pi/6 of it.
+
+    Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    r = _check_resolution(resolution)
+    tri = _check_mesh(mesh)
+    if mesh.is_watertight:
+        signed_volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()
+        if signed_volume < 0:  # inside-out mesh: flip it so "inward" points inwards
+            tri = tri[:, ::-1]
+        up, _ = _ray_windings(tri, r, axis=2)
+        occupied = up != 0
+    else:
+        votes = np.zeros((r, r, r), dtype=np.int8)
+        for axis in range(3):
+            up, down = _ray_windings(tri, r, axis)
+            votes += (up != 0).astype(np.int8)
+            votes += (down != 0).astype(np.int8)
+        occupied = votes >= 4
+    occupied |= _thin_surface(occupied, tri, r)
+    return ndimage.binary_fill_holes(occupied)
+
+
+def shapenet_voxels_to_zup(voxels: np.ndarray) -> np.ndarray:
+    """Turn a grid in ShapeNetCore v2's frame (y up, front -z) into ours (z up, front -y).
+
+    The same proper rotation as ``e2vlib.shapes.shapenet_to_zup``: ``(x, y, z) -> (-x, z, y)``,
+    i.e. ``out[i, j, k] = voxels[R - 1 - i, k, j]``. Assumes the grid covers a cube centred
+    on the origin. Returns a new ``bool`` array ``(R, R, R)``; VoxelError for a non-cubic grid.
+
+    Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    v = _check_grid(voxels)
+    return np.ascontiguousarray(v[::-1].transpose(0, 2, 1))
+
+
+# --------------------------------------------------------------------------- binvox
+
+
+def _check_grid(voxels: np.ndarray) -> np.ndarray:
+    v = np.asarray(voxels)
+    if v.ndim != 3 or len(set(v.shape)) != 1 or v.shape[0] == 0:
+        raise VoxelError(f"voxels must be a cubic (R, R, R) array, got shape {v.shape}")
+    if v.dtype != bool:
+        if not np.issubdtype(v.dtype, np.number) or not np.all(np.isin(v, (0, 1))):
+            raise VoxelError(
+                f"voxels must be bool or hold only 0/1, got dtype {v.dtype}; "
+                "threshold probabilities first, e.g. probabilities > 0.5"
+            )
+        v = v.astype(bool)
+    return v
+
+
+def read_binvox(path: str | os.PathLike) -> np.ndarray:
+    """Read a binvox file into a ``bool`` array indexed ``[x, y, z]``.
+
+    binvox (Patrick Min's voxelizer, used for ShapeNetVox32 and Pix2Vox labels) stores an
+    ASCII header (``#binvox 1``, ``dim D D D``, ``translate tx ty tz``, ``scale s``,
+    ``data``) followed by run-length pairs of bytes ``(value, count)``. The runs list the
+    voxels with **y running fastest, then z, then x** (flat index ``x*D*D + z*D + y``), so
+    the decoded array is reshaped to ``(D, D, D)`` = ``[x, z, y]`` and its last two axes are
+    swapped. ``translate`` and ``scale`` are read but not returned (our grids always cover
+    ``[-0.5, 0.5]^3``). Note that ShapeNet's grids are in ShapeNet's y-up frame; see
+    :func:`shapenet_voxels_to_zup`.
+
+    Raises :class:`VoxelError` (a ValueError) naming the file for a bad header, a
+    non-cubic grid, or run lengths that do not add up to ``D^3``; FileNotFoundError if missing.
+
+    Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    path = Path(path)
+    raw = path.read_bytes()
+    header: dict[str, list[str]] = {}
+    pos = 0
+    first = True
+    while True:
+        end = raw.find(b"\n", pos)
+        if end < 0:
+            raise VoxelError(f"{path}: binvox header ends before the 'data' line; file truncated?")
+        line = raw[pos:end].strip()
+        pos = end + 1
+        try:
+            text = line.decode("ascii")
+        except UnicodeDecodeError as err:
+            raise VoxelError(f"{path}: binvox header is not ASCII; not a binvox file") from err
+        if first:
+            if not text.startswith("#binvox"):
+                raise VoxelError(f"{path}: does not start with '#binvox'; not a binvox file")
+            first = False
+            continue
+        if text == "data":
+            break
+        if text:
+            key, *values = text.split()
+            header[key] = values
+        if len(header) > 16:
+            raise VoxelError(f"{path}: binvox header has no 'data' line")
+    try:
+        dims = tuple(int(v) for v in header["dim"])
+    except (KeyError, ValueError) as err:
+        raise VoxelError(f"{path}: binvox header lacks a valid 'dim D D D' line") from err
+    if len(dims) != 3 or min(dims) <= 0:
+        raise VoxelError(f"{path}: binvox dim must be three positive ints, got {dims}")
+    if len(set(dims)) != 1:
+        raise VoxelError(f"{path}: only cubic binvox grids are supported, got dim {dims}")
+    size = dims[0] * dims[1] * dims[2]
+    body = np.frombuffer(raw, dtype=np.uint8, offset=pos)
+    if body.size % 2:
+        raise VoxelError(
+            f"{path}: binvox data has an odd number of bytes ({body.size}); file truncated?"
+        )
+    values = body[0::2]
+    counts = body[1::2].astype(np.int64)
+    total = int(counts.sum())
+    if total != size:
+        raise VoxelError(
+            f"{path}: binvox run lengths add up to {total} voxels but dim {dims} needs {size}; "
+            "file truncated or corrupt"
+        )
+    if np.any(values > 1):
+        raise VoxelError(f"{path}: binvox run values must be 0 or 1; file corrupt")
+    flat = np.repeat(values.astype(bool), counts)
+    return np.ascontiguousarray(flat.reshape(dims).transpose(0, 2, 1))
+
+
+def _run_lengths(flat: np.ndarray) -> bytes:
+    """binvox run-length pairs (value, count <= 255) of a 1-D bool array."""
+    if flat.size == 0:
+        return b""
+    change = np.flatnonzero(flat[1:] != flat[:-1]) + 1
+    starts = np.concatenate([[0], change])
+    lengths = np.diff(np.concatenate([starts, [flat.size]]))
+    run_values = flat[starts].astype(np.uint8)
+    # split runs longer than 255 into chunks of at most 255
+    n_chunks = (lengths + 254) // 255
+    vals = np.repeat(run_values, n_chunks)
+    cnt = np.full(int(n_chunks.sum()), 255, dtype=np.int64)
+    last = np.cumsum(n_chunks) - 1
+    cnt[last] = lengths - 255 * (n_chunks - 1)
+    pairs = np.empty(2 * len(vals), dtype=np.uint8)
+    pairs[0::2] = vals
+    pairs[1::2] = cnt
+    return pairs.tobytes()
+
+
+def write_binvox(
+    path: str | os.PathLike,
+    voxels: np.ndarray,
+    translate: Sequence[float] = (-0.5, -0.5, -0.5),
+    scale: float = 1.0,
+) -> None:
+    """Write a cubic grid indexed ``[x, y, z]`` as a binvox file (see :func:`read_binvox`).
+
+    ``translate`` and ``scale`` go into the header; binvox readers map voxel ``i`` to
+    ``translate + (i + 0.5) / D * scale``, so the defaults describe our cube
+    ``[-0.5, 0.5]^3``. The file is written to a temporary file next to ``path`` and then
+    renamed, so an existing file is never left half-written. The input is not modified.
+
+    Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    v = _check_grid(voxels)
+    t = [float(x) for x in translate]
+    if len(t) != 3 or not all(np.isfinite(t)):
+        raise VoxelError(f"translate must be three finite floats, got {translate!r}")
+    if not np.isfinite(scale) or scale <= 0:
+        raise VoxelError(f"scale must be a positive float, got {scale!r}")
+    d = v.shape[0]
+    header = (
+        f"#binvox 1\ndim {d} {d} {d}\ntranslate {t[0]!r} {t[1]!r} {t[2]!r}\n"
+        f"scale {float(scale)!r}\ndata\n"
+    ).encode("ascii")
+    body = _run_lengths(v.transpose(0, 2, 1).ravel())
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(header)
+            fh.write(body)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
