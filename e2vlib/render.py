@@ -187,8 +187,11 @@ def required_oversample(
     raise ValueError(f"no oversample up to 64 keeps motion within {max_motion_px} px")
 
 
-def _to_polydata(mesh):
-    """A pyvista.PolyData view of a trimesh.Trimesh or pyvista.PolyData (never modified)."""
+def to_polydata(mesh):
+    """A pyvista.PolyData view of a trimesh.Trimesh or pyvista.PolyData (never modified).
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
     import pyvista as pv
 
     if isinstance(mesh, pv.PolyData):
@@ -265,7 +268,7 @@ def render_orbit(
     if not (isinstance(fps, (int, float, np.integer, np.floating)) and math.isfinite(fps)
             and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps!r}")
-    poly = _to_polydata(mesh)
+    poly = to_polydata(mesh)
     n_out = _n_rendered(n, k)
     cameras = _spiral(_orbit_s(n_out))
     t_us = np.round(np.arange(n_out) * 1e6 / (k * float(fps))).astype(np.int64)

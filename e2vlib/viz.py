@@ -164,3 +164,85 @@ def animate_frames(frames: np.ndarray, interval_ms: int = 50, dt_us: int | None 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=interval_ms, blit=True)
     plt.close(fig)
     return anim
+
+
+# --- voxels (matplotlib: static, works everywhere) -----------------------------------------
+
+
+def plot_voxels(grid: np.ndarray, ax=None, threshold: float = 0.5, color="#8fa8c8",
+                title: str | None = None, colormap: str | None = None):
+    """Draw the voxels of a ``(R, R, R)`` grid (indexed x, y, z) with ``grid >= threshold``.
+
+    With ``colormap`` (e.g. ``"viridis"``) each voxel is coloured by its value (a
+    probability); otherwise all take ``color``. Returns the 3D axes.
+    Introduced in notebooks/07_evaluation.ipynb.
+    """
+    grid = np.asarray(grid, dtype=np.float32)
+    if grid.ndim != 3:
+        raise ValueError(f"grid must be (R, R, R), got shape {grid.shape}")
+    if ax is None:
+        ax = plt.figure(figsize=(4, 4)).add_subplot(projection="3d")
+    filled = grid >= threshold
+    if colormap is not None:
+        colors = plt.get_cmap(colormap)(np.clip(grid, 0, 1))
+        ax.voxels(filled, facecolors=colors, edgecolor=(0, 0, 0, 0.15), linewidth=0.2)
+    else:
+        ax.voxels(filled, facecolors=color, edgecolor=(0, 0, 0, 0.25), linewidth=0.2)
+    size = grid.shape[0]
+    for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+        setter(0, size)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=20, azim=-60)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_zticks([])
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_reconstruction(probabilities: np.ndarray, voxels: np.ndarray | None = None,
+                        threshold: float = 0.3, title: str | None = None):
+    """Ground truth (if given) beside the prediction ``probabilities >= threshold``.
+
+    The prediction is coloured by probability; the title reports IoU at ``threshold``
+    when the ground truth is known. Returns the figure.
+    Introduced in notebooks/07_evaluation.ipynb.
+    """
+    from e2vlib.metrics import iou
+
+    n = 1 if voxels is None else 2
+    fig = plt.figure(figsize=(4.2 * n, 4.4))
+    if voxels is not None:
+        plot_voxels(voxels, fig.add_subplot(1, n, 1, projection="3d"), title="ground truth")
+    label = f"prediction (p >= {threshold})"
+    if voxels is not None:
+        label += f", IoU {iou(probabilities, voxels, threshold):.2f}"
+    plot_voxels(probabilities, fig.add_subplot(1, n, n, projection="3d"), threshold=threshold,
+                colormap="viridis", title=label)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+# --- voxels and meshes (pyvista: interactive in JupyterLab, static image headless) -------
+
+
+def voxel_mesh(grid: np.ndarray, threshold: float = 0.5):
+    """The voxels of ``grid`` (indexed x, y, z) with value ``>= threshold`` as cubes.
+
+    Returns a ``pyvista.UnstructuredGrid`` placed in the unit cube ``[-0.5, 0.5]^3`` (the
+    frame of the meshes), with the voxel values in ``cell_data["value"]``. Empty
+    selections return an empty grid. Introduced in notebooks/04_building_the_dataset.ipynb.
+    """
+    import pyvista as pv
+
+    grid = np.asarray(grid, dtype=np.float32)
+    if grid.ndim != 3 or len(set(grid.shape)) != 1:
+        raise ValueError(f"grid must be a cube (R, R, R), got shape {grid.shape}")
+    size = grid.shape[0]
+    image = pv.ImageData(dimensions=(size + 1,) * 3, spacing=(1.0 / size,) * 3,
+                         origin=(-0.5, -0.5, -0.5))
+    image.cell_data["value"] = grid.ravel(order="F")  # VTK runs x fastest
+    return image.threshold(threshold, scalars="value")
