@@ -10,8 +10,8 @@ import argparse
 import sys
 
 DATA_PRESETS = {
-    # data_small/: 13 categories x 32 objects, 128 px renders, 64 px frames
-    "small": {"per_category": 32, "resolution": 128, "frame_size": 64, "seed": 0},
+    # data_small/: 13 categories x 64 objects = 832 samples, 128 px renders, 64 px frames
+    "small": {"per_category": 64, "resolution": 128, "frame_size": 64, "seed": 0},
     # the paper's input size: 512 px renders max-pooled to 256 px frames
     "paper": {"per_category": 3057, "resolution": 512, "frame_size": 256, "seed": 0},
 }
