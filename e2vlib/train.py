@@ -199,6 +199,10 @@ def fit(
         order = _epoch_order(len(train_set), seed, epoch)
         batches = [order[i:i + recipe.batch_size]
                    for i in range(0, len(order), recipe.batch_size)]
+        if len(batches) > 1 and len(batches[-1]) < 2:
+            # BatchNorm cannot train on a single sample: fold a lone last one into the
+            # batch before it.
+            batches[-2:] = [torch.cat(batches[-2:])]
         losses = []
         bar = tqdm(batches, desc=f"epoch {epoch + 1}/{recipe.epochs}", leave=False,
                    disable=not progress or rank != 0)

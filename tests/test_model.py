@@ -1,0 +1,293 @@
+"""Tests for e2vlib.model: shapes, parameter counts, seeding, gradients, checkpoints, errors."""
+
+import os
+
+import pytest
+import torch
+
+from e2vlib.model import (
+    PAPER_PARAMETERS,
+    PRESETS,
+    CheckpointError,
+    E2VConfig,
+    activation_bytes,
+    build_e2v,
+    count_parameters,
+    format_summary,
+    load_checkpoint,
+    parameter_breakdown,
+    read_checkpoint,
+    save_checkpoint,
+    summary,
+)
+
+SMALL = (16, 32, 32)  # a quick input: stem -> 8x16x16, pool -> 4x8x8, ... -> 1x1x1
+
+
+def small_model(**overrides):
+    kw = {"input_shape": SMALL, "seed": 0} | overrides
+    return build_e2v("tiny", **kw)
+
+
+@pytest.fixture(scope="module")
+def paper_meta():
+    with torch.device("meta"):
+        return build_e2v("paper")
+
+
+# ----------------------------------------------------------------------------- shapes
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {},
+        {"bridge": "interp", "hidden_channels": 3},
+        {"bridge": "fc", "seed_size": 8, "bottleneck": "conv"},
+        {"depth": 18, "norm": "group", "bottleneck": "none"},
+        {"depth": 50, "base_width": 4, "decoder_widths": (8, 16)},
+        {"depth": 10, "block": "bottleneck", "stem_kernel": 7, "stem_pool": False},
+        {"encoder": "frames2d"},
+        {"input_shape": (9, 20, 28)},  # odd sizes round up through every stride
+    ],
+)
+def test_output_shape_for_several_configs(overrides):
+    model = small_model(**overrides)
+    x = torch.rand(2, *model.input_shape)
+    y = model(x)
+    assert y.shape == (2, 32, 32, 32)
+    assert y.dtype == torch.float32 and torch.isfinite(y).all()
+
+
+def test_tiny_preset_matches_data_small_frames_and_is_small():
+    model = build_e2v("tiny")
+    assert model.input_shape == (100, 64, 64)
+    assert count_parameters(model) < 5_000_000
+    # (100, 64, 64): stem stride 2 -> (50, 32, 32), pool -> (25, 16, 16), then halve 3x
+    assert model.encoder_shape == (64, 4, 2, 2)
+    assert model.bridge.kind == "fc"  # the global bridge the prototype needed
+    with torch.no_grad():
+        assert model.eval()(torch.zeros(1, 100, 64, 64)).shape == (1, 32, 32, 32)
+
+
+@pytest.mark.parametrize(
+    ("input_shape", "channels"),
+    # ResNet-152 ends with 2048 channels; each of d, h, w shrinks by 32 (rounding up):
+    # (50, 256, 256) -> (2, 8, 8): 2048 * 128 = 8 * 32^3; (20, 128, 128) -> (1, 4, 4):
+    # 2048 * 16 = 1 * 32^3. (The paper's (100, 256, 256) -> C = 16 is checked below.)
+    [((50, 256, 256), 8), ((20, 128, 128), 1)],
+)
+def test_reshape_bridge_channels_follow_input_shape(input_shape, channels):
+    with torch.device("meta"):
+        model = build_e2v("paper", input_shape=input_shape)
+        y = model(torch.empty(1, *input_shape))
+    assert model.hidden_channels == channels
+    assert count_parameters(model.head) == channels + 1
+    assert y.shape == (1, 32, 32, 32)
+
+
+def test_reshape_bridge_rejects_inputs_that_do_not_fill_32_cubed():
+    # (30, 64, 64) -> (1, 2, 2): 2048 * 4 = 8192 values, a quarter of 32^3.
+    with pytest.raises(ValueError, match=r"\(2048, 1, 2, 2\).*multiple of 32\^3"):
+        with torch.device("meta"):
+            build_e2v("paper", input_shape=(30, 64, 64))
+
+
+# ----------------------------------------------------------------------------- the paper
+
+
+def test_resnet152_3d_trunk_parameter_count(paper_meta):
+    assert paper_meta.encoder.out_channels == 2048
+    assert count_parameters(paper_meta.encoder) == 117_359_936
+
+
+def test_paper_preset_within_two_percent_of_paper(paper_meta):
+    total = count_parameters(paper_meta)
+    assert abs(total - PAPER_PARAMETERS) / PAPER_PARAMETERS < 0.02
+    parts = parameter_breakdown(paper_meta)
+    assert parts["total"] == total
+    assert parts["bridge"] == 0  # reshape has no weights
+    assert parts["head"] == 16 + 1  # 1x1x1 conv from C = 16 channels, with bias
+
+
+def test_paper_shapes_on_meta(paper_meta):
+    assert paper_meta.input_shape == (100, 256, 256)
+    rows = {r["name"]: r for r in summary(paper_meta, batch_size=2)}
+    assert rows["encoder.stem"]["shape"] == (2, 64, 25, 64, 64)
+    assert rows["encoder.layer4"]["shape"] == (2, 2048, 4, 8, 8)
+    # 2048 * 4 * 8 * 8 = 524,288 = 16 * 32^3 -> C = 16
+    assert rows["bridge"]["shape"] == (2, 16, 32, 32, 32)
+    assert paper_meta.hidden_channels == 16
+    assert rows["decoder.down3"]["shape"] == (2, 128, 4, 4, 4)
+    assert rows["head"]["shape"] == (2, 1, 32, 32, 32)
+    y = paper_meta(torch.empty(2, 100, 256, 256, device="meta"))
+    assert y.shape == (2, 32, 32, 32) and y.device.type == "meta"
+
+
+def test_summary_counts_add_up_and_activations_scale_with_batch():
+    model = build_e2v("tiny")
+    rows = summary(model)
+    assert sum(r["params"] for r in rows) == count_parameters(model)
+    assert all(r["shape"] is not None for r in rows)
+    assert [r["name"] for r in rows][:2] == ["encoder.stem", "encoder.layer1"]
+    assert "total" in format_summary(rows)
+    one, four = activation_bytes(model, 1), activation_bytes(model, 4)
+    # The input alone (100*64*64 float32) is saved by the first conv.
+    assert one > 100 * 64 * 64 * 4
+    assert abs(four - 4 * one) < 0.01 * one  # linear in the batch (tiny per-call constants)
+
+
+def test_summary_matches_real_saved_tensors_on_cpu():
+    model = small_model().eval()
+    keys: dict[int, int] = {}
+    weights = {p.data_ptr() for p in model.parameters()}
+
+    def pack(t):
+        ptr = t.untyped_storage().data_ptr()
+        if t.ndim >= 2 and ptr not in weights:
+            keys[ptr] = t.untyped_storage().nbytes()
+        return t
+
+    with torch.autograd.graph.saved_tensors_hooks(pack, lambda t: t):
+        out = model(torch.rand(3, *SMALL))
+    assert out.shape == (3, 32, 32, 32)
+    assert activation_bytes(model, 3) == sum(keys.values())
+
+
+def test_hand_counted_tiny_encoder_stages():
+    rows = {r["name"]: r["params"] for r in summary(small_model())}
+    # stem: 3x3x3 conv 1 -> 8 (216) + BatchNorm (2 * 8)
+    assert rows["encoder.stem"] == 27 * 8 + 16
+    # layer1: one BasicBlock 8 -> 8: two 3x3x3 convs + two BatchNorms, identity shortcut
+    assert rows["encoder.layer1"] == 2 * (27 * 8 * 8 + 16)
+    # layer2: 8 -> 16 with stride 2: convs 27*8*16 + 27*16*16, 1x1x1 projection 8*16, 3 BNs
+    assert rows["encoder.layer2"] == 27 * 8 * 16 + 27 * 16 * 16 + 8 * 16 + 3 * 32
+
+
+# ----------------------------------------------------------------------------- seeding, grads
+
+
+def test_seed_makes_weights_and_outputs_reproducible():
+    state = torch.random.get_rng_state()
+    a, b, c = small_model(seed=0), small_model(seed=0), small_model(seed=1)
+    assert torch.equal(torch.random.get_rng_state(), state)  # global RNG untouched
+    x = torch.rand(2, *SMALL, generator=torch.Generator().manual_seed(5))
+    a.eval(), b.eval(), c.eval()
+    with torch.no_grad():
+        assert torch.equal(a(x), b(x))
+        assert not torch.allclose(a(x), c(x))
+    for (name, p), q in zip(a.state_dict().items(), b.state_dict().values(), strict=True):
+        assert torch.equal(p, q), name
+
+
+@pytest.mark.parametrize("overrides", [{}, {"bridge": "interp"}, {"encoder": "frames2d"}])
+def test_gradient_reaches_every_parameter(overrides):
+    model = small_model(**overrides).train()
+    g = torch.Generator().manual_seed(0)
+    x = (torch.rand(3, *SMALL, generator=g) < 0.2).float()
+    target = (torch.rand(3, 32, 32, 32, generator=g) < 0.3).float()
+    loss = torch.nn.functional.binary_cross_entropy_with_logits(model(x), target)
+    loss.backward()
+    for name, p in model.named_parameters():
+        assert p.grad is not None, f"{name} got no gradient"
+        assert torch.isfinite(p.grad).all(), name
+        assert p.grad.abs().sum() > 0, f"{name} got an all-zero gradient"
+
+
+# ----------------------------------------------------------------------------- checkpoints
+
+
+def test_checkpoint_round_trip_gives_identical_outputs(tmp_path):
+    model = small_model(bridge="interp", decoder_widths=(8, 16))
+    # Move BatchNorm running statistics away from their defaults so they must be saved.
+    model.train()
+    with torch.no_grad():
+        model(torch.rand(4, *SMALL))
+    model.eval()
+    path = tmp_path / "sub" / "model.pt"
+    opt = torch.optim.AdamW(model.parameters())
+    save_checkpoint(path, model, optimizer=opt.state_dict(), epoch=3)
+    assert sorted(os.listdir(path.parent)) == ["model.pt"]  # no temp file left behind
+    loaded = load_checkpoint(path)
+    assert loaded.config == model.config and not loaded.training
+    x = torch.rand(2, *SMALL)
+    with torch.no_grad():
+        assert torch.equal(loaded(x), model(x))
+    ckpt = read_checkpoint(path)
+    assert ckpt["epoch"] == 3 and "state" in ckpt["optimizer"]
+    assert isinstance(ckpt["config"], dict) and ckpt["config"]["decoder_widths"] == [8, 16]
+
+
+def test_save_checkpoint_replaces_existing_file_and_rejects_reserved_keys(tmp_path):
+    path = tmp_path / "m.pt"
+    save_checkpoint(path, small_model(seed=0))
+    save_checkpoint(path, small_model(seed=1))
+    reloaded = load_checkpoint(path)
+    ref = small_model(seed=1)
+    assert all(torch.equal(p, q) for p, q in zip(reloaded.parameters(), ref.parameters(),
+                                                 strict=True))
+    with pytest.raises(ValueError, match="reserved"):
+        save_checkpoint(path, ref, config={"x": 1})
+    with pytest.raises(ValueError, match="stores E2V models"):
+        save_checkpoint(path, torch.nn.Linear(2, 2))
+
+
+def test_corrupted_or_missing_checkpoint_errors_name_the_file(tmp_path):
+    missing = tmp_path / "nope.pt"
+    with pytest.raises(FileNotFoundError, match="nope.pt"):
+        load_checkpoint(missing)
+    garbage = tmp_path / "garbage.pt"
+    garbage.write_bytes(b"not a checkpoint at all" * 10)
+    with pytest.raises(CheckpointError, match="garbage.pt"):
+        load_checkpoint(garbage)
+    good = save_checkpoint(tmp_path / "good.pt", small_model())
+    truncated = tmp_path / "truncated.pt"
+    truncated.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
+    with pytest.raises(CheckpointError, match="truncated.pt"):
+        load_checkpoint(truncated)
+    other = tmp_path / "other.pt"
+    torch.save({"weights": torch.zeros(3)}, other)
+    with pytest.raises(CheckpointError, match="'config' and 'model'"):
+        load_checkpoint(other)
+    ckpt = torch.load(good, weights_only=True)
+    ckpt["model"].pop("head.bias")
+    torch.save(ckpt, tmp_path / "incomplete.pt")
+    with pytest.raises(CheckpointError, match="head.bias"):
+        load_checkpoint(tmp_path / "incomplete.pt")
+
+
+# ----------------------------------------------------------------------------- bad input
+
+
+def test_wrong_input_shape_names_expected_and_got_shape():
+    model = small_model()
+    with pytest.raises(ValueError, match=r"\(batch, 16, 32, 32\).*got \(2, 16, 64, 64\)"):
+        model(torch.rand(2, 16, 64, 64))
+    with pytest.raises(ValueError, match="unsqueeze"):
+        model(torch.rand(*SMALL))
+    with pytest.raises(ValueError, match="got \\(2, 1, 16, 32, 32\\)"):
+        model(torch.rand(2, 1, *SMALL))
+    with pytest.raises(ValueError, match=r"x\.float\(\)"):
+        model(torch.ones(2, *SMALL, dtype=torch.uint8))
+
+
+def test_bad_config_and_preset_errors():
+    with pytest.raises(ValueError, match="unknown preset"):
+        build_e2v("huge")
+    with pytest.raises(ValueError, match="unknown E2V config fields \\['widths'\\]"):
+        build_e2v("tiny", widths=(1, 2))
+    with pytest.raises(ValueError, match="depth must be one of"):
+        build_e2v("tiny", depth=11)
+    with pytest.raises(ValueError, match="bridge must be one of"):
+        build_e2v("tiny", bridge="magic")
+    with pytest.raises(ValueError, match="seed_size"):
+        build_e2v("tiny", seed_size=5)
+
+
+def test_config_dict_round_trip():
+    for config in PRESETS.values():
+        d = config.to_dict()
+        assert isinstance(d["input_shape"], list)
+        assert E2VConfig.from_dict(d) == config
+    with pytest.raises(ValueError, match="unknown E2V config keys"):
+        E2VConfig.from_dict({**PRESETS["tiny"].to_dict(), "extra": 1})
