@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import gzip
 import os
-import tempfile
+import uuid
 import zipfile
 from pathlib import Path
 
@@ -118,13 +118,12 @@ class atomic_path:  # noqa: N801  (used like a function: ``with atomic_path(p) a
         self.tmp: Path | None = None
 
     def __enter__(self) -> Path:
-        # Keep the full ending (".txt.gz", ".npz") so libraries that look at it behave.
-        fd, name = tempfile.mkstemp(
-            prefix=f".{self.path.name}.", suffix=".tmp" + "".join(self.path.suffixes),
-            dir=self.path.parent,
-        )
-        os.close(fd)
-        self.tmp = Path(name)
+        # A unique name in the same folder (so the rename is atomic), keeping the full
+        # ending (".txt.gz", ".npz") for libraries that look at it. The file is not
+        # created here, so the writer creates it with the usual permissions.
+        self.tmp = self.path.parent / (
+            f".{self.path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+            + "".join(self.path.suffixes))
         return self.tmp
 
     def __exit__(self, exc_type, exc, tb) -> None:

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 import os
-import uuid
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
@@ -745,17 +744,7 @@ def save_checkpoint(path: str | os.PathLike, model: E2V, **extra: Any) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     payload = {"config": model.config.to_dict(), "model": model.state_dict(), **extra}
-    # A unique name in the same folder ("x" mode: never clobber), created with the usual
-    # permissions (tempfile.mkstemp would make it owner-only), then renamed over ``path``.
-    tmp = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-    try:
-        with open(tmp, "xb") as f:
-            torch.save(payload, f)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    _write_payload(path, payload)
     return path
 
 
@@ -800,3 +789,32 @@ def load_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     except (ValueError, TypeError, RuntimeError) as err:
         raise CheckpointError(f"checkpoint {path} does not match an E2V model: {err}") from err
     return model.to(map_location).eval()
+
+
+def slim_checkpoint(src: str | os.PathLike, dst: str | os.PathLike, half: bool = True,
+                    keep: tuple[str, ...] = ("history", "metadata", "recipe", "epoch",
+                                             "best_iou", "seed")) -> Path:
+    """Copy a training checkpoint without its optimizer state, for shipping.
+
+    Keeps the config, the weights (as float16 when ``half``: ``load_checkpoint`` casts
+    them back to float32) and the ``keep`` entries. The committed
+    ``data_small/checkpoints/tiny.pt`` was made this way. Introduced in
+    notebooks/06_training.ipynb.
+    """
+    ckpt = read_checkpoint(src)
+    state = {k: v.half() if half and v.is_floating_point() else v
+             for k, v in ckpt["model"].items()}
+    model = E2V(E2VConfig.from_dict(dict(ckpt["config"])))
+    extra = {k: ckpt[k] for k in keep if k in ckpt}
+    path = Path(dst)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _write_payload(path, {"config": model.config.to_dict(), "model": state, **extra})
+    return path
+
+
+def _write_payload(path: Path, payload: dict) -> None:
+    """``torch.save`` to a temporary name next to ``path``, then rename over it."""
+    from e2vlib.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        torch.save(payload, tmp)

@@ -12,13 +12,14 @@ Introduced in notebooks/04_building_the_dataset.ipynb.
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import trimesh
 from scipy import ndimage
+
+from e2vlib.io import atomic_path
 
 # A tiny, irrational-looking offset of the ray positions (in voxels) so that no ray passes
 # exactly through a mesh edge or vertex placed on a "nice" coordinate (e.g. the diagonal of
@@ -406,13 +407,5 @@ def write_binvox(
     ).encode("ascii")
     body = _run_lengths(v.transpose(0, 2, 1).ravel())
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(header)
-            fh.write(body)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(header + body)
