@@ -1,0 +1,126 @@
+"""Training throughput of the tiny preset, the paper preset at full input, and the target.
+
+1. Training samples/s of ``tiny`` on data_small (batch 16, AdamW, real frames).
+2. Forward time and peak memory of the ``paper`` preset at its full input 100 x 256 x 256,
+   batch 1, in a child process (peak RSS measured there); skipped with a message when the
+   machine has less than 16 GiB of memory.
+3. The committed checkpoint ``data_small/checkpoints/tiny.pt``: its training time and
+   test results against the mean-shape baselines and the paper's 0.346.
+Run: ``python bench/bench_training.py``; writes the "Training" section.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import machine, spread, timeit, write_section  # noqa: E402
+
+from e2vlib.data import E2VDataset  # noqa: E402
+from e2vlib.model import build_e2v, load_checkpoint, read_checkpoint  # noqa: E402
+from e2vlib.train import evaluate, preload  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "data_small"
+CHECKPOINT = DATA / "checkpoints" / "tiny.pt"
+PAPER_IOU = 0.346
+
+PAPER_CHILD = """
+import resource, time, torch
+from e2vlib.model import build_e2v
+torch.set_num_threads({threads})
+model = build_e2v("paper", seed=0).eval()
+x = (torch.rand(1, 100, 256, 256) < 0.05).float()
+with torch.no_grad():
+    model(x)
+    start = time.perf_counter()
+    model(x)
+    seconds = time.perf_counter() - start
+print(seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+"""
+
+
+def training_rate(batch: int = 16, steps: int = 6) -> dict:
+    data = preload(E2VDataset(DATA, "train"))
+    model = build_e2v("tiny", seed=0).train()
+    optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
+    loss_fn = torch.nn.BCEWithLogitsLoss()
+    x = data.frames[:batch].float()
+    y = data.voxels[:batch].float()
+
+    def step():
+        optimizer.zero_grad(set_to_none=True)
+        loss_fn(model(x), y).backward()
+        optimizer.step()
+
+    return timeit(step, repeat=steps)
+
+
+def paper_forward(threads: int) -> tuple[float, float] | str:
+    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if total < 16 * 2**30:
+        return f"skipped: {total / 2**30:.0f} GiB of memory, 16 GiB wanted"
+    code = PAPER_CHILD.format(threads=threads)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    seconds, peak = out.stdout.split()
+    return float(seconds), float(peak)
+
+
+def main() -> str:
+    threads = torch.get_num_threads()
+    rate = training_rate()
+    lines = [f"Command: `python bench/bench_training.py`. Machine: {machine()}, "
+             f"torch threads {threads}.", ""]
+    lines.append(f"- **tiny training step** (batch 16, 100 x 64 x 64, AdamW): "
+                 f"{spread(rate)} per step = **{16 / rate['median']:.0f} samples/s**.")
+    paper = paper_forward(threads)
+    if isinstance(paper, str):
+        lines.append(f"- **paper preset forward** (1 x 100 x 256 x 256): {paper}.")
+    else:
+        lines.append(f"- **paper preset forward** (1 x 100 x 256 x 256, CPU, no grad): "
+                     f"{paper[0]:.1f} s, peak memory of the process {paper[1] / 2**30:.1f} GiB.")
+    if torch.cuda.is_available():
+        lines.append("- a GPU is present: see the GPU section for its numbers.")
+    else:
+        lines.append("- no GPU on this machine; GPU numbers are recorded when one is lent.")
+    if CHECKPOINT.exists():
+        ckpt = read_checkpoint(CHECKPOINT)
+        history = ckpt["history"]
+        minutes = sum(h["seconds"] for h in history) / 60
+        best = max(history, key=lambda h: h["val_iou"])
+        result = evaluate(load_checkpoint(CHECKPOINT), E2VDataset(DATA, "test"),
+                          train_data=E2VDataset(DATA, "train"), progress=False)
+        ours = result["overall"]["iou@0.3"]
+        mean = result["baseline_mean_shape"]["iou@0.3"]
+        oracle = result["baseline_category_mean"]["iou@0.3"]
+        lines += ["", f"**Target** (committed `data_small/checkpoints/tiny.pt`, recipe "
+                  f"{json.dumps(ckpt.get('recipe', {}))}): {len(history)} epochs in "
+                  f"{minutes:.1f} min of training (sum of epoch wall times as recorded, "
+                  f"validation included), best validation IoU@0.3 {best['val_iou']:.3f} at "
+                  f"epoch {best['epoch']}.", "",
+                  "| test split (78 samples) | IoU@0.2 | IoU@0.3 | IoU@0.4 | IoU@0.5 | F@1% "
+                  "| F@20% |", "| --- | --- | --- | --- | --- | --- | --- |"]
+        for name, row in (("tiny E2V", result["overall"]),
+                          ("mean shape", result["baseline_mean_shape"]),
+                          ("category mean (oracle)", result["baseline_category_mean"])):
+            lines.append(f"| {name} | " + " | ".join(
+                f"{row[k]:.3f}" for k in ("iou@0.2", "iou@0.3", "iou@0.4", "iou@0.5",
+                                          "fscore@1%", "fscore@20%")) + " |")
+        lines += ["", f"Test mIoU@0.3 is **{ours - mean:+.3f}** against the mean shape "
+                  f"(target: at least +0.10), {ours - oracle:+.3f} against the per-category "
+                  f"oracle, and {ours - PAPER_IOU:+.3f} against the paper's {PAPER_IOU} "
+                  "(a different dataset: ShapeNet objects, 256 px frames, ResNet-152)."]
+    body = "\n".join(lines)
+    write_section("Training", body)
+    return body
+
+
+if __name__ == "__main__":
+    print(main())
