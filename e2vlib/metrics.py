@@ -80,18 +80,32 @@ def fscore(pred, gt, threshold: float = 0.3, distance: float = 0.01,
     cube's side: 0.01 is Pix2Vox++'s F-Score@1%. Two empty grids score 1, one empty grid
     0. Returns a float, or ``(B,)`` for a batch. Introduced in notebooks/07_evaluation.ipynb.
     """
+    scores = fscores(pred, gt, threshold, (distance,), n_points, seed)
+    return scores[..., 0] if scores.ndim == 2 else float(scores[0])
+
+
+def fscores(pred, gt, threshold: float = 0.3, distances=(0.01, 0.2),
+            n_points: int = 8192, seed: int = 0) -> np.ndarray:
+    """:func:`fscore` at several distances from one set of surface samples.
+
+    Returns ``(len(distances),)`` for one grid or ``(B, len(distances))`` for a batch.
+    """
     from scipy.spatial import cKDTree
 
     pred, gt = _check_pair(pred, gt)
     if pred.ndim == 4:
-        return np.array([fscore(p, g, threshold, distance, n_points, seed)
+        return np.stack([fscores(p, g, threshold, distances, n_points, seed)
                          for p, g in zip(pred, gt, strict=True)])
     pred_points = surface_points(pred >= threshold, n_points, seed)
     gt_points = surface_points(gt > 0.5, n_points, seed)  # same seed: equal grids score 1
     if len(pred_points) == 0 or len(gt_points) == 0:
-        return 1.0 if len(pred_points) == len(gt_points) else 0.0
-    precision = np.mean(cKDTree(gt_points).query(pred_points)[0] <= distance)
-    recall = np.mean(cKDTree(pred_points).query(gt_points)[0] <= distance)
-    if precision + recall == 0:
-        return 0.0
-    return float(2 * precision * recall / (precision + recall))
+        both_empty = len(pred_points) == len(gt_points)
+        return np.full(len(distances), 1.0 if both_empty else 0.0)
+    to_gt = cKDTree(gt_points).query(pred_points)[0]
+    to_pred = cKDTree(pred_points).query(gt_points)[0]
+    out = []
+    for distance in distances:
+        precision, recall = np.mean(to_gt <= distance), np.mean(to_pred <= distance)
+        total = precision + recall
+        out.append(0.0 if total == 0 else 2 * precision * recall / total)
+    return np.array(out)
