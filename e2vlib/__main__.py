@@ -1,4 +1,4 @@
-"""Command line: ``python -m e2vlib {make-data,train,evaluate,reconstruct} ...``.
+"""Command line: ``python -m e2vlib {make-data,train,evaluate,reconstruct,figures} ...``.
 
 Each subcommand is a thin wrapper over a library function; ``--help`` on any of them
 lists its options.
@@ -147,6 +147,25 @@ def _reconstruct(args: argparse.Namespace) -> int:
     return 0
 
 
+def _figures(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from e2vlib.viz import render_readme_figures
+
+    checkpoint = args.checkpoint or str(Path(args.data) / "checkpoints" / "tiny.pt")
+    try:
+        paths = render_readme_figures(args.out, args.data, checkpoint,
+                                      categories=tuple(args.categories.split(",")))
+    except (FileNotFoundError, ValueError) as err:
+        raise SystemExit(f"figures: {err}") from err
+    for path in paths.values():
+        print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m e2vlib",
@@ -209,6 +228,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--device", default="auto")
     p.add_argument("--seed", type=int, default=0, help="simulator seed (mesh input)")
     p.set_defaults(func=_reconstruct)
+    p = sub.add_parser("figures", help="render the README's pictures (events in space-time, "
+                       "event frames, ground truth beside reconstruction)")
+    p.add_argument("--out", default="docs/figures", help="output folder (docs/figures)")
+    p.add_argument("--data", default="data_small", help="dataset with raw events (data_small)")
+    p.add_argument("--checkpoint", help="trained model (default DATA/checkpoints/tiny.pt)")
+    p.add_argument("--categories", default="airplane,car,chair,lamp,table",
+                   help="columns of the reconstruction picture (comma-separated)")
+    p.set_defaults(func=_figures)
     return parser
 
 

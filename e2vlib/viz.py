@@ -1,10 +1,15 @@
-"""Plotting helpers: events in space-time, event rates, frame grids and animations.
+"""Plotting helpers: events in space-time, event rates, frame grids, animations, voxels.
 
-Matplotlib only here (static figures that work headless); every function draws into an
-``ax``/``fig`` it is given or makes one, and returns it, so notebooks can adjust it.
+Matplotlib functions (``plot_*``, ``show_frame``, ``animate_frames``) give static figures
+that work headless; each draws into an ``ax``/``fig`` it is given or makes one, and
+returns it. PyVista functions (``view_*``) build 3D scenes and return the plotter unshown:
+``.show()`` is interactive in JupyterLab (trame) and an image under
+``PYVISTA_JUPYTER_BACKEND=static``; :func:`screenshot` renders one off screen.
+:func:`export_reconstruction` writes a prediction for other tools.
 Colours: ON events red, OFF events blue throughout the lessons.
 
-Introduced in notebooks/01_events.ipynb and notebooks/02_event_frames.ipynb.
+Introduced in notebooks/01_events.ipynb, notebooks/02_event_frames.ipynb and
+notebooks/08_visualizing_in_3d.ipynb.
 """
 
 from __future__ import annotations
@@ -246,3 +251,558 @@ def voxel_mesh(grid: np.ndarray, threshold: float = 0.5):
                          origin=(-0.5, -0.5, -0.5))
     image.cell_data["value"] = grid.ravel(order="F")  # VTK runs x fastest
     return image.threshold(threshold, scalars="value")
+
+
+# --- 3D scenes (pyvista) -------------------------------------------------------------------
+#
+# Each ``view_*`` function builds and returns a ``pyvista.Plotter`` without showing it: call
+# ``.show()`` in a notebook (the backend comes from the environment variable
+# PYVISTA_JUPYTER_BACKEND: "trame" gives an interactive view in JupyterLab, "static" an
+# image) or :func:`screenshot` for a picture as an array or PNG file. ``off_screen=None``
+# lets pyvista decide (off screen inside notebooks and where PYVISTA_OFF_SCREEN is set).
+
+OBJECT_VIEW = (1.6, -2.4, 1.4)
+"""Default viewing direction on the object: front-right and above (the object faces -y)."""
+TRUTH_COLOR, MESH_COLOR = "#8fa8c8", "#d2b48c"
+
+
+def _new_plotter(off_screen: bool | None, window_size, shape=(1, 1)):
+    import pyvista as pv
+
+    plotter = pv.Plotter(off_screen=off_screen, window_size=window_size, shape=shape,
+                         border=False)
+    plotter.set_background("white")
+    return plotter
+
+
+def _aim_at_object(plotter, direction=OBJECT_VIEW, zoom: float = 1.0) -> None:
+    """Look at the origin from ``direction``, +z up, framing the unit cube."""
+    plotter.camera_position = [tuple(float(v) for v in direction), (0.0, 0.0, 0.0),
+                               (0.0, 0.0, 1.0)]
+    plotter.reset_camera(bounds=(-0.5, 0.5, -0.5, 0.5, -0.5, 0.5))
+    if zoom != 1.0:
+        plotter.camera.zoom(zoom)
+
+
+def _unit_cube_floor():
+    """A light 4 x 4 grid on the floor of the unit cube (z = -0.5), 0.25 m squares."""
+    import pyvista as pv
+
+    return pv.Plane(center=(0.0, 0.0, -0.5), i_size=1.0, j_size=1.0, i_resolution=4,
+                    j_resolution=4)
+
+
+def _is_binary(grid: np.ndarray) -> bool:
+    return bool(np.all((grid == 0) | (grid == 1)))
+
+
+def event_cloud(events: np.ndarray, sensor_size: tuple[int, int], max_events: int = 100_000,
+                t_scale: float | None = None):
+    """Events as a ``pyvista.PolyData`` point cloud at ``(x, t * t_scale, y up)``.
+
+    ``x`` and the flipped ``y`` (``height - 1 - y``, so the picture is upright) are in
+    pixels; time in ms since the first event is multiplied by ``t_scale`` (pixels per ms;
+    default: the whole stream spans twice the sensor width). Point data ``"polarity"``
+    (-1/+1) and ``"t_ms"``; ``field_data["t_scale"]`` holds the scale used. At most
+    ``max_events`` events, a random subset kept in time order.
+    Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    import pyvista as pv
+
+    width, height = check_sensor_size(sensor_size)
+    validate(events, (width, height))
+    if len(events) == 0:
+        raise ValueError("no events to show; pass a non-empty event array")
+    shown = _subsample(events, max_events)
+    t_ms = (shown["t"] - events["t"][0]) / 1e3
+    span_ms = max(float(events["t"][-1] - events["t"][0]) / 1e3, 1e-3)
+    scale = 2.0 * width / span_ms if t_scale is None else float(t_scale)
+    if not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"t_scale must be a positive number of px per ms, got {t_scale!r}")
+    points = np.column_stack([shown["x"].astype(np.float64), t_ms * scale,
+                              (height - 1 - shown["y"].astype(np.int64)).astype(np.float64)])
+    cloud = pv.PolyData(points)
+    cloud.point_data["polarity"] = shown["p"].astype(np.int8)
+    cloud.point_data["t_ms"] = t_ms.astype(np.float32)
+    cloud.field_data["t_scale"] = np.array([scale])
+    return cloud
+
+
+def view_events(events: np.ndarray, sensor_size: tuple[int, int], max_events: int = 100_000,
+                point_size: float = 2.0, off_screen: bool | None = None,
+                window_size=(900, 600)):
+    """3D scene of events in space-time: x across, time in depth, y up; ON red, OFF blue.
+
+    The pyvista twin of :func:`plot_events_3d` (rotate it with the mouse in JupyterLab).
+    The axes show pixels and milliseconds. Returns the plotter (not shown).
+    Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    width, height = check_sensor_size(sensor_size)
+    cloud = event_cloud(events, (width, height), max_events=max_events)
+    scale = float(cloud.field_data["t_scale"][0])
+    span_ms = float(events["t"][-1] - events["t"][0]) / 1e3
+    plotter = _new_plotter(off_screen, window_size)
+    for polarity, color, label in ((1, ON_COLOR, "ON (+1)"), (-1, OFF_COLOR, "OFF (-1)")):
+        part = cloud.extract_points(cloud.point_data["polarity"] == polarity,
+                                    adjacent_cells=False, include_cells=True)
+        if part.n_points:
+            plotter.add_mesh(part, color=color, point_size=point_size, label=label,
+                             render_points_as_spheres=False, style="points")
+    plotter.add_legend(bcolor="white", border=True, size=(0.16, 0.1), loc="upper left")
+    bounds = (0.0, float(width), 0.0, span_ms * scale, 0.0, float(height))
+    plotter.show_bounds(bounds=bounds, axes_ranges=(0, width, 0, span_ms, 0, height),
+                        xtitle="x [px]", ytitle="t [ms]", ztitle="y [px]", color="gray",
+                        grid=False, location="outer", ticks="outside", fmt="%.0f")
+    centre = np.array([width / 2, span_ms * scale / 2, height / 2])
+    plotter.camera_position = [tuple(centre + np.array([1.4, -1.0, 0.6]) * span_ms * scale),
+                               tuple(centre), (0.0, 0.0, 1.0)]
+    plotter.reset_camera(bounds=bounds)
+    position, focus, up = plotter.camera_position  # lower the view a little: room for labels
+    drop = np.array([0.0, 0.0, 0.12 * height])
+    plotter.camera_position = [tuple(np.asarray(position) - drop),
+                               tuple(np.asarray(focus) - drop), up]
+    plotter.camera.zoom(1.15)
+    return plotter
+
+
+def _add_voxels(plotter, grid: np.ndarray, threshold: float, color=TRUTH_COLOR,
+                cmap: str | None = None, show_edges: bool = True, floor: bool = True,
+                scalar_bar: bool = True) -> int:
+    """Add the cubes of ``grid >= threshold`` to the current subplot; return their count."""
+    cubes = voxel_mesh(grid, threshold)
+    if floor:
+        plotter.add_mesh(_unit_cube_floor(), style="wireframe", color="#c8c8c8", line_width=1,
+                         lighting=False)
+    if cubes.n_cells == 0:
+        plotter.add_text(f"no voxel >= {threshold:g}", position="upper_right", font_size=8,
+                         color="gray")
+        return 0
+    style = {"show_edges": show_edges, "edge_color": "#5a5a5a", "line_width": 0.5,
+             "smooth_shading": False}
+    if cmap is not None:
+        plotter.add_mesh(cubes, scalars="value", cmap=cmap, clim=(0.0, 1.0),
+                         show_scalar_bar=scalar_bar,
+                         scalar_bar_args={"title": "probability", "vertical": True,
+                                          "position_x": 0.86, "position_y": 0.1,
+                                          "height": 0.55, "width": 0.06, "fmt": "%.1f"},
+                         **style)
+    else:
+        plotter.add_mesh(cubes, color=color, **style)
+    return int(cubes.n_cells)
+
+
+def view_voxels(grid: np.ndarray, threshold: float = 0.5, color=TRUTH_COLOR,
+                cmap: str | None = "auto", show_edges: bool = True, title: str | None = None,
+                off_screen: bool | None = None, window_size=(500, 500)):
+    """3D scene of a ``(R, R, R)`` voxel grid (indexed x, y, z over ``[-0.5, 0.5]^3``).
+
+    Cubes with ``grid >= threshold`` are drawn with their edges, above a light grid on the
+    floor of the unit cube (0.25 m squares). ``cmap="auto"`` colours a grid of
+    probabilities (values other than 0/1) by value with viridis, and a 0/1 label in one
+    ``color``; pass a colormap name or ``None`` to choose. Returns the plotter (not shown).
+    Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    grid = np.asarray(grid, dtype=np.float32)
+    if cmap == "auto":
+        cmap = None if _is_binary(grid) else "viridis"
+    plotter = _new_plotter(off_screen, window_size)
+    count = _add_voxels(plotter, grid, threshold, color=color, cmap=cmap,
+                        show_edges=show_edges)
+    plotter.add_text(title if title is not None else f"{count} voxels >= {threshold:g}",
+                     font_size=11, color="black")
+    _aim_at_object(plotter)
+    return plotter
+
+
+def _as_grid_list(grids, name: str) -> list[np.ndarray]:
+    """One grid ``(R, R, R)`` or a sequence/stack of them -> list of float32 grids."""
+    items = [grids] if np.ndim(grids) == 3 else list(grids)
+    out = [np.asarray(g, dtype=np.float32) for g in items]
+    for g in out:
+        if g.ndim != 3 or len(set(g.shape)) != 1:
+            raise ValueError(f"each of {name} must be a cube (R, R, R), got shape {g.shape}")
+    return out
+
+
+def view_reconstructions(truths, predictions, threshold: float = 0.3,
+                         titles=None, off_screen: bool | None = None, panel_size: int = 300,
+                         link: bool = True):
+    """Ground truth (top row) above prediction (bottom row), one column per object.
+
+    The layout of the paper's Figure 3. ``truths`` and ``predictions`` are one grid
+    ``(R, R, R)`` or sequences/stacks of ``n`` grids; predictions are probabilities,
+    drawn where ``>= threshold`` and coloured by value, each panel titled with its IoU at
+    ``threshold``. With ``link`` all ``2 n`` views share one camera: turning one turns
+    all. Returns the plotter with ``shape == (2, n)`` (not shown).
+    Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    from e2vlib.metrics import iou
+
+    truths = _as_grid_list(truths, "truths")
+    predictions = _as_grid_list(predictions, "predictions")
+    if len(truths) != len(predictions) or not truths:
+        raise ValueError(f"need as many truths as predictions (and at least one), got "
+                         f"{len(truths)} and {len(predictions)}")
+    n = len(truths)
+    titles = [None] * n if titles is None else list(titles)
+    if len(titles) != n:
+        raise ValueError(f"titles must have {n} entries (one per column), got {len(titles)}")
+    plotter = _new_plotter(off_screen, (panel_size * n, 2 * panel_size), shape=(2, n))
+    for col, (gt, pred, title) in enumerate(zip(truths, predictions, titles, strict=True)):
+        plotter.subplot(0, col)
+        _add_voxels(plotter, gt, 0.5)
+        plotter.add_text(f"{title}\nground truth" if title else "ground truth", font_size=9,
+                         color="black")
+        plotter.subplot(1, col)
+        _add_voxels(plotter, pred, threshold, cmap="viridis", scalar_bar=False)
+        plotter.add_text(f"prediction\nIoU@{threshold:g} = {float(iou(pred, gt, threshold)):.2f}",
+                         font_size=9, color="black")
+        _aim_at_object(plotter, zoom=1.15)
+    plotter.subplot(0, 0)
+    _aim_at_object(plotter, zoom=1.15)
+    if link:
+        plotter.link_views()
+    return plotter
+
+
+def view_mesh_voxels(mesh, voxels: np.ndarray, mesh_opacity: float = 0.55,
+                     off_screen: bool | None = None, window_size=(600, 600)):
+    """A mesh (semi-transparent) with the outer edges of its voxel label drawn over it.
+
+    ``mesh`` is a normalized ``trimesh.Trimesh`` or ``pyvista.PolyData``; ``voxels`` a
+    ``(R, R, R)`` grid over ``[-0.5, 0.5]^3``. Shows how the 32^3 label approximates the
+    surface: thin parts become one-voxel slabs, curved parts staircases. Returns the
+    plotter (not shown). Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    from e2vlib.render import to_polydata
+
+    if not 0 < mesh_opacity <= 1:
+        raise ValueError(f"mesh_opacity must be in (0, 1], got {mesh_opacity!r}")
+    poly = to_polydata(mesh)
+    shell = voxel_mesh(voxels, 0.5).extract_surface(algorithm=None)
+    plotter = _new_plotter(off_screen, window_size)
+    plotter.add_mesh(_unit_cube_floor(), style="wireframe", color="#c8c8c8", line_width=1,
+                         lighting=False)
+    plotter.add_mesh(poly, color=MESH_COLOR, opacity=mesh_opacity, smooth_shading=False)
+    if shell.n_cells:
+        plotter.add_mesh(shell, style="wireframe", color="#1f3b73", line_width=1)
+    plotter.add_text(f"mesh and its {int(np.count_nonzero(np.asarray(voxels) >= 0.5))} voxels",
+                     font_size=11, color="black")
+    _aim_at_object(plotter)
+    return plotter
+
+
+def camera_frustum(position, depth: float = 2.0, view_angle_deg: float | None = None):
+    """The viewing pyramid of a camera at ``position`` (m) looking at the origin, +z up.
+
+    Returns ``(lines, base)``: the apex-to-corner and rim lines (``pyvista.PolyData``) and
+    the square base ``depth`` metres in front of the camera as a quad with texture
+    coordinates, so a rendered frame can be pasted on it (top-left corner of the image
+    at the top-left of the base). ``view_angle_deg`` defaults to the render camera's
+    (:data:`e2vlib.render.VIEW_ANGLE_DEG`). Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    import pyvista as pv
+
+    from e2vlib.render import VIEW_ANGLE_DEG
+
+    angle = VIEW_ANGLE_DEG if view_angle_deg is None else float(view_angle_deg)
+    position = np.asarray(position, dtype=np.float64).reshape(3)
+    forward = -position / np.linalg.norm(position)
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    if np.linalg.norm(right) < 1e-9:
+        raise ValueError("the camera must not sit on the z axis (its up direction is +z)")
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    half = depth * np.tan(np.radians(angle / 2))
+    centre = position + depth * forward
+    corners = np.array([centre + sx * half * right + sy * half * up
+                        for sx, sy in ((-1, 1), (1, 1), (1, -1), (-1, -1))])  # clockwise
+    lines = pv.PolyData(np.vstack([position, corners]),
+                        lines=[2, 0, 1, 2, 0, 2, 2, 0, 3, 2, 0, 4, 5, 1, 2, 3, 4, 1])
+    base = pv.PolyData(corners, faces=[4, 0, 1, 2, 3])
+    base.active_texture_coordinates = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], dtype=float)
+    return lines, base
+
+
+def view_orbit(mesh, n_frames: int = 120, fps: float = 240, every: int = 20, video=None,
+               frustum_depth: float = 2.0, off_screen: bool | None = None,
+               window_size=(1000, 750)):
+    """The data set-up in one scene: spiral camera path, camera frusta, and the object.
+
+    The path of :func:`e2vlib.render.orbit_cameras` is coloured by time (ms), a frustum
+    is drawn every ``every`` frames and at the last one, with a grey sight line to the
+    object; with ``video`` (``(n_frames, H, W)`` gray in [0, 1], e.g. from
+    ``render_orbit``) each frustum's base shows the frame that camera rendered. The
+    object is drawn to scale at the origin. Returns the plotter (not shown).
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
+    import pyvista as pv
+
+    from e2vlib.render import orbit_cameras, to_polydata
+
+    cams = orbit_cameras(n_frames)
+    if not isinstance(every, (int, np.integer)) or isinstance(every, bool) or every < 1:
+        raise ValueError(f"every must be a positive integer, got {every!r}")
+    if video is not None:
+        video = np.asarray(video)
+        if video.ndim != 3 or len(video) != n_frames:
+            raise ValueError(f"video must be ({n_frames}, H, W) like render_orbit's output, "
+                             f"got shape {video.shape}")
+    t_ms = np.arange(n_frames) * 1e3 / float(fps)
+    path = pv.lines_from_points(cams)
+    path["time [ms]"] = t_ms
+    plotter = _new_plotter(off_screen, window_size)
+    plotter.add_mesh(path, scalars="time [ms]", cmap="viridis", line_width=5,
+                     scalar_bar_args={"position_x": 0.3, "position_y": 0.86, "width": 0.4,
+                                      "color": "black", "fmt": "%.0f", "n_labels": 6})
+    plotter.add_mesh(to_polydata(mesh), color=MESH_COLOR)
+    shown = sorted({*range(0, n_frames, every), n_frames - 1})
+    for i in shown:
+        lines, base = camera_frustum(cams[i], depth=frustum_depth)
+        plotter.add_mesh(lines, color="black", line_width=1.5)
+        if video is not None:
+            frame = np.clip(np.asarray(video[i], dtype=np.float64), 0, 1)
+            image = np.repeat((frame[..., None] * 255).astype(np.uint8), 3, axis=2)
+            plotter.add_mesh(base, texture=pv.numpy_to_texture(image), lighting=False)
+        else:
+            plotter.add_mesh(base, color="lightgray", opacity=0.5, lighting=False)
+        plotter.add_mesh(pv.Line(cams[i], (0.0, 0.0, 0.0)), color="gray", opacity=0.5)
+    mid = n_frames // 2
+    radius = float(np.hypot(*cams[mid, :2]))
+    plotter.add_point_labels(cams[[0, mid, -1]], ["start, 0 ms", f"r = {radius:.1f} m",
+                                                   f"end, {t_ms[-1]:.0f} ms"],
+                             font_size=14, point_size=8, shape_opacity=0.6)
+    reach = float(np.ceil(np.abs(cams[:, :2]).max()))
+    plotter.show_grid(bounds=(-reach, reach, -reach, reach, -2.0, 2.0), n_xlabels=5,
+                      n_ylabels=5, n_zlabels=5, fmt="%.0f", xtitle="x [m]", ytitle="y [m]",
+                      ztitle="z [m]", color="gray")
+    plotter.camera_position = [(15, -15, 10), (0, 0, -0.3), (0, 0, 1)]
+    plotter.reset_camera(bounds=(-reach, reach, -reach, reach, -2.0, 2.0))
+    plotter.camera.zoom(1.05)
+    return plotter
+
+
+def screenshot(plotter, path=None, scale: int | None = None) -> np.ndarray:
+    """Render ``plotter`` headless and return the image ``(H, W, 3)`` uint8.
+
+    With ``path`` the image is also written as a PNG (temporary file, then renamed).
+    Works for plotters created with ``off_screen=None`` that have not been shown yet:
+    they are switched to off-screen rendering first. The plotter stays open, so it can
+    still be shown or saved again. Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    if getattr(plotter, "render_window", None) is None:
+        raise ValueError("this plotter is closed; build the scene again before a screenshot")
+    if plotter._first_time and not plotter.off_screen:  # never shown: render off screen
+        plotter.off_screen = True
+        plotter.ren_win.SetOffScreenRendering(1)
+    image = np.asarray(plotter.screenshot(return_img=True, scale=scale))[..., :3].copy()
+    if path is not None:
+        from pathlib import Path
+
+        from PIL import Image
+
+        from e2vlib.io import atomic_path
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            Image.fromarray(image).save(tmp, format="PNG", optimize=True)
+    return image
+
+
+# --- exporting a reconstruction for other tools ---------------------------------------------
+
+
+def probability_mesh(probabilities: np.ndarray, threshold: float = 0.3):
+    """A closed triangle mesh of the surface ``probabilities == threshold`` (marching cubes).
+
+    The grid ``(R, R, R)`` (indexed x, y, z over ``[-0.5, 0.5]^3``, value of voxel ``i``
+    at its centre ``-0.5 + (i + 0.5) / R``) is padded with a layer of zeros so the surface
+    closes at the border, and vertices are clipped to the cube. For a 0/1 grid at threshold
+    0.5 the surface runs exactly along the voxel faces between occupied and empty voxels
+    (edges and corners cut diagonally). Returns a watertight ``trimesh.Trimesh`` in metres
+    with outward normals. Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    import trimesh
+    from skimage.measure import marching_cubes
+
+    grid = np.asarray(probabilities, dtype=np.float32)
+    if grid.ndim != 3 or len(set(grid.shape)) != 1:
+        raise ValueError(f"probabilities must be a cube (R, R, R), got shape {grid.shape}")
+    if not 0 < threshold < 1:
+        raise ValueError(f"threshold must lie strictly between 0 and 1, got {threshold!r}")
+    if not np.any(grid >= threshold):
+        raise ValueError(f"no voxel reaches the threshold {threshold:g}; lower it to get a mesh")
+    size = grid.shape[0]
+    padded = np.pad(grid, 1, constant_values=0.0)
+    verts, faces, _, _ = marching_cubes(padded, level=float(threshold))
+    verts = np.clip((verts - 0.5) / size - 0.5, -0.5, 0.5)  # padded index j -> metres
+    mesh = trimesh.Trimesh(verts, faces, process=True)
+    if mesh.volume < 0:  # make the normals point outwards whatever skimage's convention
+        mesh.invert()
+    return mesh
+
+
+EXPORT_SUFFIXES = {"png": ".png", "vti": ".vti", "vtu": ".vtu", "vtp": ".vtp",
+                   "binvox": ".binvox", "obj": ".obj", "stl": ".stl"}
+"""What :func:`export_reconstruction` writes, by format name."""
+
+
+def export_reconstruction(probabilities: np.ndarray, out_dir, threshold: float = 0.3,
+                          name: str = "reconstruction", formats=tuple(EXPORT_SUFFIXES)):
+    """Write a predicted grid ``(R, R, R)`` in formats other tools read; return the paths.
+
+    ``formats`` (default: all) picks from :data:`EXPORT_SUFFIXES`:
+
+    * ``png``: a picture of the voxels ``>= threshold`` (:func:`view_voxels`, off screen);
+    * ``vti``: the whole probability grid as VTK image data (cell data ``"probability"``),
+      for volume rendering or thresholding in ParaView;
+    * ``vtu``: the voxels ``>= threshold`` as cubes (:func:`voxel_mesh`), ``vtp`` their
+      outer surface as polygons;
+    * ``binvox``: the thresholded grid (:func:`e2vlib.voxels.write_binvox`), the format of
+      ShapeNetVox32 / Pix2Vox labels;
+    * ``obj`` and ``stl``: a smooth surface from :func:`probability_mesh` for Blender,
+      MeshLab or a 3D printer (metres; the object fits the 1 m cube).
+
+    Every file goes to a temporary file in ``out_dir`` first and is then renamed, so an
+    existing export is never left half-written. Returns ``{format: Path}``.
+    Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    from pathlib import Path
+
+    import pyvista as pv
+
+    from e2vlib.io import atomic_path
+    from e2vlib.voxels import write_binvox
+
+    grid = np.asarray(probabilities, dtype=np.float32)
+    if grid.ndim != 3 or len(set(grid.shape)) != 1:
+        raise ValueError(f"probabilities must be a cube (R, R, R), got shape {grid.shape}")
+    unknown = sorted(set(formats) - set(EXPORT_SUFFIXES))
+    if unknown:
+        raise ValueError(f"unknown formats {unknown}; choose from {sorted(EXPORT_SUFFIXES)}")
+    if not name or "/" in name or name.startswith("."):
+        raise ValueError(f"name must be a plain file stem such as 'chair', got {name!r}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {fmt: out / f"{name}{EXPORT_SUFFIXES[fmt]}" for fmt in formats}
+    size = grid.shape[0]
+    cubes = voxel_mesh(grid, threshold) if {"vtu", "vtp"} & set(formats) else None
+    surface = probability_mesh(grid, threshold) if {"obj", "stl"} & set(formats) else None
+    for fmt, path in paths.items():
+        if fmt == "png":
+            plotter = view_voxels(grid, threshold, off_screen=True,
+                                  title=f"{name}: p >= {threshold:g}")
+            try:
+                screenshot(plotter, path)
+            finally:
+                plotter.close()
+        elif fmt == "binvox":
+            write_binvox(path, grid >= threshold)  # atomic itself
+        else:
+            with atomic_path(path) as tmp:
+                if fmt == "vti":
+                    image = pv.ImageData(dimensions=(size + 1,) * 3, spacing=(1.0 / size,) * 3,
+                                         origin=(-0.5, -0.5, -0.5))
+                    image.cell_data["probability"] = grid.ravel(order="F")
+                    image.save(tmp)
+                elif fmt == "vtu":
+                    cubes.save(tmp)
+                elif fmt == "vtp":
+                    cubes.extract_surface(algorithm=None).save(tmp)
+                else:
+                    surface.export(tmp, file_type=fmt)
+    return paths
+
+
+# --- the README's pictures -------------------------------------------------------------------
+
+README_CATEGORIES = ("airplane", "car", "chair", "lamp", "table")
+"""Columns of the README's ground-truth-beside-reconstruction picture."""
+
+
+def render_readme_figures(out_dir, data_root, checkpoint, categories=README_CATEGORIES,
+                          events_category: str = "chair") -> dict:
+    """Render the README's pictures into ``out_dir``; return ``{name: Path}``.
+
+    * ``events_space_time.png``: the raw events of the ``events_category`` sample whose
+      events ``data_root/events/`` keeps, in space-time (:func:`view_events`);
+    * ``event_frames.png``: eight of its 100 binary 5 ms frames (the model's input before
+      max-pooling);
+    * ``reconstruction.png``: ground truth above the ``checkpoint``'s prediction for one
+      test sample per category, the one with the median IoU@0.3 of its category (a
+      typical result, not the best), in the layout of the paper's Figure 3.
+
+    Introduced in notebooks/08_visualizing_in_3d.ipynb (``python -m e2vlib figures``).
+    """
+    from pathlib import Path
+
+    import torch
+
+    from e2vlib.data import E2VDataset, events_to_frames
+    from e2vlib.explore import category_indices, raw_events_path
+    from e2vlib.io import atomic_path, load_events
+    from e2vlib.metrics import iou
+    from e2vlib.model import load_checkpoint
+    from e2vlib.train import predict
+
+    out = Path(out_dir)
+    checkpoint = Path(checkpoint)
+    if not checkpoint.is_file():
+        raise FileNotFoundError(
+            f"checkpoint {checkpoint} not found: the reconstruction picture needs a trained "
+            f"model; train one (python -m e2vlib train --data {data_root} --out DIR) and pass "
+            "--checkpoint DIR/best.pt")
+    test = E2VDataset(data_root, "test")
+    groups = category_indices(test)
+    missing = [c for c in (*categories, events_category) if c not in groups]
+    if missing:
+        raise ValueError(f"{data_root} has no test samples of {missing}; choose from "
+                         f"{', '.join(groups)}")
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {}
+
+    with_events = [i for i in groups[events_category] if raw_events_path(test, i) is not None]
+    if not with_events:
+        raise ValueError(f"{data_root}/events/ holds no raw events of a {events_category} test "
+                         "sample; pick another events_category")
+    events, sensor_size = load_events(raw_events_path(test, with_events[0]))
+    plotter = view_events(events, sensor_size, max_events=40_000, point_size=1.5,
+                          off_screen=True, window_size=(900, 520))
+    try:
+        paths["events_space_time"] = out / "events_space_time.png"
+        screenshot(plotter, paths["events_space_time"])
+    finally:
+        plotter.close()
+
+    frames = events_to_frames(events, sensor_size, sensor_size[0])  # 100 x 5 ms, full size
+    shown = np.linspace(0, len(frames) - 1, 8).round().astype(int)
+    side = sensor_size[0]
+    crop = slice(side // 8, side - side // 8)  # the object sits in the middle of the image
+    fig = plot_frame_grid(frames[:, crop, crop], indices=shown, n_cols=8, dt_us=5000,
+                          panel_size=1.5)
+    paths["event_frames"] = out / "event_frames.png"
+    with atomic_path(paths["event_frames"]) as tmp:
+        fig.savefig(tmp, dpi=90, format="png")
+    plt.close(fig)
+
+    model = load_checkpoint(checkpoint)
+    truths, preds, titles = [], [], []
+    for category in categories:
+        members = groups[category]
+        stack = [test.arrays(i) for i in members]
+        frames_in = torch.from_numpy(np.stack([f for f, _ in stack]))
+        probs = predict(model, frames_in, "cpu").numpy()
+        scores = [float(iou(p, v)) for p, (_, v) in zip(probs, stack, strict=True)]
+        pick = int(np.argsort(scores)[len(scores) // 2])  # the median sample
+        truths.append(stack[pick][1])
+        preds.append(probs[pick])
+        titles.append(category)
+    plotter = view_reconstructions(truths, preds, threshold=0.3, titles=titles,
+                                   off_screen=True, panel_size=260)
+    try:
+        paths["reconstruction"] = out / "reconstruction.png"
+        screenshot(plotter, paths["reconstruction"])
+    finally:
+        plotter.close()
+    return paths
