@@ -269,8 +269,9 @@ TRUTH_COLOR, MESH_COLOR = "#8fa8c8", "#d2b48c"
 def _new_plotter(off_screen: bool | None, window_size, shape=(1, 1)):
     import pyvista as pv
 
+    # "three lights" (key, fill, back) keeps dense voxel views readable on every side.
     plotter = pv.Plotter(off_screen=off_screen, window_size=window_size, shape=shape,
-                         border=False)
+                         border=False, lighting="three lights")
     plotter.set_background("white")
     return plotter
 
