@@ -9,5 +9,3 @@ Importing the package does no work: no seeds, no downloads, no plotting backend 
 """
 
 __version__ = "0.1.0"
-
-QUICK_ENV_VAR = "E2V_QUICK"

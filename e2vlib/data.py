@@ -27,7 +27,7 @@ import multiprocessing
 import os
 import zipfile
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -98,7 +98,6 @@ class Sample:
     voxels: np.ndarray
     events: np.ndarray
     sensor_size: tuple[int, int]
-    extra: dict = field(default_factory=dict)
 
 
 def sample_seed(seed: int, category: str, index: int) -> int:
