@@ -103,15 +103,16 @@ def _reconstruct(args: argparse.Namespace) -> int:
 
     from e2vlib.data import BuildConfig, events_to_model_input, mesh_to_sample
     from e2vlib.io import atomic_path, load_events
-    from e2vlib.model import load_checkpoint, read_checkpoint
+    from e2vlib.model import model_from_checkpoint, read_checkpoint
     from e2vlib.shapes import load_mesh
     from e2vlib.train import predict
 
-    model = load_checkpoint(args.checkpoint)
+    checkpoint = read_checkpoint(args.checkpoint)
+    model = model_from_checkpoint(checkpoint, source=f"checkpoint {args.checkpoint}")
     depth, frame_size, _ = model.input_shape
     outputs = {}
     if args.mesh:
-        stored = read_checkpoint(args.checkpoint).get("metadata", {}).get("data_config", {})
+        stored = checkpoint.get("metadata", {}).get("data_config", {})
         config = BuildConfig(
             categories=("custom",), per_category=1, frame_size=frame_size,
             resolution=int(stored.get("resolution", 2 * frame_size)),

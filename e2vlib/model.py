@@ -781,13 +781,22 @@ def load_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     state are ignored; use :func:`read_checkpoint` to get them). Errors as in
     :func:`read_checkpoint`. Introduced in notebooks/05_the_e2v_model.ipynb.
     """
-    ckpt = read_checkpoint(path, map_location)
+    return model_from_checkpoint(read_checkpoint(path, map_location), map_location,
+                                 f"checkpoint {path}")
+
+
+def model_from_checkpoint(ckpt: dict, map_location: str | torch.device = "cpu",
+                          source: object = "checkpoint") -> E2V:
+    """Rebuild the :class:`E2V` of a dict from :func:`read_checkpoint`, in eval mode.
+
+    For callers that also need the checkpoint's other entries (metadata, history)
+    without reading the file twice. Introduced in notebooks/05_the_e2v_model.ipynb.
+    """
     try:
-        config = E2VConfig.from_dict(dict(ckpt["config"]))
-        model = E2V(config)
+        model = E2V(E2VConfig.from_dict(dict(ckpt["config"])))
         model.load_state_dict(ckpt["model"])
     except (ValueError, TypeError, RuntimeError) as err:
-        raise CheckpointError(f"checkpoint {path} does not match an E2V model: {err}") from err
+        raise CheckpointError(f"{source} does not match an E2V model: {err}") from err
     return model.to(map_location).eval()
 
 
@@ -804,11 +813,11 @@ def slim_checkpoint(src: str | os.PathLike, dst: str | os.PathLike, half: bool =
     ckpt = read_checkpoint(src)
     state = {k: v.half() if half and v.is_floating_point() else v
              for k, v in ckpt["model"].items()}
-    model = E2V(E2VConfig.from_dict(dict(ckpt["config"])))
+    config = E2VConfig.from_dict(dict(ckpt["config"]))  # validates the stored config
     extra = {k: ckpt[k] for k in keep if k in ckpt}
     path = Path(dst)
     path.parent.mkdir(parents=True, exist_ok=True)
-    _write_payload(path, {"config": model.config.to_dict(), "model": state, **extra})
+    _write_payload(path, {"config": config.to_dict(), "model": state, **extra})
     return path
 
 
