@@ -380,8 +380,8 @@ class E2VDataset(Dataset):
             self.frame_size = stored
         else:
             self.layout = "synthevox3d"
-            self.items = [item for item in synthevox3d_items(self.root) if item[3] == split]
-            self.items = [(i, c, p) for i, c, p, _ in self.items]
+            self.items = [(sample_id, category, scan) for sample_id, category, scan, s
+                          in synthevox3d_items(self.root) if s == split]
             self.frame_size = frame_size or 256
         if categories is not None:
             self.items = [it for it in self.items if it[1] in set(categories)]
