@@ -73,7 +73,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from e2vlib.data import E2VDataset
-    from e2vlib.io import atomic_path
+    from e2vlib.files import atomic_path
     from e2vlib.model import load_checkpoint
     from e2vlib.train import evaluate, format_table
 

@@ -35,8 +35,9 @@ import torch
 from torch.utils.data import Dataset
 
 from e2vlib.events import EventError
+from e2vlib.files import atomic_path
 from e2vlib.frames import accumulate, downsample
-from e2vlib.io import atomic_path, save_events
+from e2vlib.io import save_events
 
 N_FRAMES = 100  # the paper: 100 frames ...
 DT_US = 5_000  # ... of 5 ms = 0.5 s

@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import gzip
 import os
-import uuid
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from e2vlib.events import EventError, check_sensor_size, make_events, sort_events, validate
+from e2vlib.files import atomic_path
 
 FORMATS = (".npz", ".txt", ".txt.gz", ".h5", ".hdf5", ".aedat4")
 _TIME_SCALE_TO_US = {"s": 1e6, "ms": 1e3, "us": 1.0, "ns": 1e-3}
@@ -104,34 +104,6 @@ def save_events(
     with atomic_path(path) as tmp:
         writer(tmp, events, sensor_size)
     return path
-
-
-class atomic_path:  # noqa: N801  (used like a function: ``with atomic_path(p) as tmp``)
-    """Context manager yielding a temporary path next to ``path``; renamed on success.
-
-    On an exception the temporary file is removed and ``path`` is left as it was.
-    Introduced in notebooks/01_events.ipynb.
-    """
-
-    def __init__(self, path: str | os.PathLike):
-        self.path = Path(path)
-        self.tmp: Path | None = None
-
-    def __enter__(self) -> Path:
-        # A unique name in the same folder (so the rename is atomic), keeping the full
-        # ending (".txt.gz", ".npz") for libraries that look at it. The file is not
-        # created here, so the writer creates it with the usual permissions.
-        self.tmp = self.path.parent / (
-            f".{self.path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-            + "".join(self.path.suffixes))
-        return self.tmp
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        assert self.tmp is not None
-        if exc_type is None:
-            os.replace(self.tmp, self.path)
-        else:
-            self.tmp.unlink(missing_ok=True)
 
 
 # --- .npz (native) -----------------------------------------------------------------------

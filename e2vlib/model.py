@@ -823,7 +823,7 @@ def slim_checkpoint(src: str | os.PathLike, dst: str | os.PathLike, half: bool =
 
 def _write_payload(path: Path, payload: dict) -> None:
     """``torch.save`` to a temporary name next to ``path``, then rename over it."""
-    from e2vlib.io import atomic_path
+    from e2vlib.files import atomic_path
 
     with atomic_path(path) as tmp:
         torch.save(payload, tmp)

@@ -23,7 +23,7 @@ import torch
 import torch.distributed as dist
 from torch import nn
 
-from e2vlib.io import atomic_path
+from e2vlib.files import atomic_path
 from e2vlib.metrics import IOU_THRESHOLDS, fscores, iou
 from e2vlib.model import E2V, read_checkpoint, save_checkpoint
 

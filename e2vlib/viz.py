@@ -602,7 +602,7 @@ def screenshot(plotter, path=None, scale: int | None = None) -> np.ndarray:
 
         from PIL import Image
 
-        from e2vlib.io import atomic_path
+        from e2vlib.files import atomic_path
 
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -673,7 +673,7 @@ def export_reconstruction(probabilities: np.ndarray, out_dir, threshold: float =
 
     import pyvista as pv
 
-    from e2vlib.io import atomic_path
+    from e2vlib.files import atomic_path
     from e2vlib.voxels import write_binvox
 
     grid = np.asarray(probabilities, dtype=np.float32)

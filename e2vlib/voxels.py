@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from e2vlib.io import atomic_path
+from e2vlib.files import atomic_path
 
 # A tiny, irrational-looking offset of the ray positions (in voxels) so that no ray passes
 # exactly through a mesh edge or vertex placed on a "nice" coordinate (e.g. the diagonal of
