@@ -21,10 +21,10 @@ lab: $(STAMP)
 	$(VENV)/bin/jupyter lab notebooks/
 
 test: $(STAMP) lint
-	$(QUICK_ENV) $(PY) -m pytest tests notebooks --nbmake --nbmake-timeout=600
+	$(QUICK_ENV) $(PY) -m pytest --doctest-modules e2vlib tests notebooks --nbmake --nbmake-timeout=600
 
 unit: $(STAMP)
-	$(QUICK_ENV) $(PY) -m pytest tests
+	$(QUICK_ENV) $(PY) -m pytest --doctest-modules e2vlib tests
 
 notebooks: $(STAMP)
 	$(QUICK_ENV) $(PY) -m pytest notebooks --nbmake --nbmake-timeout=600 --durations=0

@@ -19,7 +19,7 @@ DATA_PRESETS = {
 
 def _make_data(args: argparse.Namespace) -> int:
     from e2vlib.data import BuildConfig, build_dataset, parse_shard
-    from e2vlib.shapes import CATEGORIES
+    from e2vlib.paper import CATEGORIES
 
     settings = dict(DATA_PRESETS[args.preset]) if args.preset else {}
     for key in ("per_category", "resolution", "frame_size", "seed"):
@@ -102,28 +102,37 @@ def _reconstruct(args: argparse.Namespace) -> int:
     import torch
 
     from e2vlib.data import BuildConfig, events_to_model_input, mesh_to_sample
-    from e2vlib.io import atomic_path, load_events
+    from e2vlib.files import atomic_path
+    from e2vlib.io import load_events
     from e2vlib.model import model_from_checkpoint, read_checkpoint
     from e2vlib.shapes import load_mesh
     from e2vlib.train import predict
 
     checkpoint = read_checkpoint(args.checkpoint)
     model = model_from_checkpoint(checkpoint, source=f"checkpoint {args.checkpoint}")
-    depth, frame_size, _ = model.input_shape
+    n_frames, frame_size, _ = model.input_shape
     outputs = {}
+    # The frames are made exactly as for the data the model was trained on.
+    stored = dict(checkpoint.get("data_config") or
+                  checkpoint.get("metadata", {}).get("data_config") or {})
+    stored.setdefault("frame_size", frame_size)
+    stored.setdefault("resolution", 2 * frame_size)
+    stored.setdefault("n_frames", n_frames)
+    stored["categories"] = list(stored.get("categories") or [])  # not used for one mesh
+    known = {k: v for k, v in stored.items() if k in BuildConfig.__dataclass_fields__}
+    known["categories"] = known["categories"] or ["chair"]
+    known["per_category"] = 1
+    config = BuildConfig.from_dict(known)
     if args.mesh:
-        stored = checkpoint.get("metadata", {}).get("data_config", {})
-        config = BuildConfig(
-            categories=("custom",), per_category=1, frame_size=frame_size,
-            resolution=int(stored.get("resolution", 2 * frame_size)),
-            oversample=stored.get("oversample"), contrast=float(stored.get("contrast", 0.2)))
         sample = mesh_to_sample(load_mesh(args.mesh), config, seed=args.seed)
         frames, outputs["voxels"] = sample.frames, sample.voxels
     else:
         events, sensor_size = load_events(args.events)
-        frames = events_to_model_input(events, sensor_size, frame_size)
-    if frames.shape[0] != depth:
-        raise SystemExit(f"the model expects {depth} frames, the input gives {frames.shape[0]}")
+        frames = events_to_model_input(events, sensor_size, frame_size, n_frames=config.n_frames,
+                                       dt_us=config.dt_us, windows=config.windows)
+    if frames.shape[0] != n_frames:
+        raise SystemExit(f"the model expects {n_frames} frames, the input gives "
+                         f"{frames.shape[0]}")
     probabilities = predict(model, torch.from_numpy(frames)[None], args.device)[0].numpy()
     outputs["probabilities"] = probabilities.astype(np.float32)
     outputs["frames"] = frames

@@ -27,57 +27,120 @@ import multiprocessing
 import os
 import zipfile
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import numpy as np
 import torch
 from torch.utils.data import Dataset
 
+from e2vlib import paper
 from e2vlib.events import EventError
 from e2vlib.files import atomic_path
-from e2vlib.frames import accumulate, downsample
+from e2vlib.frames import WINDOWS, accumulate, downsample
 from e2vlib.io import save_events
 
-N_FRAMES = 100  # the paper: 100 frames ...
-DT_US = 5_000  # ... of 5 ms = 0.5 s
-VIDEO_FRAMES, VIDEO_FPS = 120, 240  # the paper's orbit video: 120 frames at 240 fps
 SPLITS = ("train", "val", "test")
-SPLIT_FRACTIONS = (0.8, 0.1, 0.1)  # the paper's 8:1:1
+SPLIT_FRACTIONS = (0.8, 0.1, 0.1)  # the paper's 832 : 104 : 104 is 8 : 1 : 1
 
 
 @dataclass(frozen=True)
 class BuildConfig:
     """Settings of one dataset build; stored as ROOT/config.json.
 
-    ``resolution``: rendered and simulated image size in px; ``frame_size``: size of the
+    ``resolution``: rendered and simulated image size in px; ``frame_size``: side of the
     stored frames after max-pooling (must divide ``resolution``); ``oversample``: render
     this many times more video frames than the paper's 240 fps so the object moves at
     most about a pixel between frames (default: the smallest such factor, 3 at 128 px;
-    see lesson 03).
+    see lesson 03); ``contrast``: the simulator's threshold C (our choice, the paper gives
+    none); ``n_frames`` event frames of ``dt_us`` microseconds, grouped by ``windows``
+    (``"fixed"`` clock windows or the paper's Eq. 5 ``"paper"``, see
+    :func:`e2vlib.frames.accumulate`).
+
+    Examples
+    --------
+    >>> config = BuildConfig(categories=("chair",), per_category=2, oversample=3)
+    >>> config.n_frames, config.dt_us, config.windows
+    (100, 5000, 'fixed')
+    >>> BuildConfig.from_dict(config.to_dict()) == config
+    True
     """
 
     categories: tuple[str, ...]
     per_category: int
-    resolution: int = 128
-    frame_size: int = 64
+    resolution: int = paper.RESOLUTION_PX
+    frame_size: int = paper.FRAME_SIZE_PX
     oversample: int | None = None  # None: the smallest keeping motion <= 1 px per frame
-    contrast: float = 0.2
+    contrast: float = paper.CONTRAST_THRESHOLD
     seed: int = 0
     raw_events_per_category: int = 1
+    n_frames: int = paper.N_EVENT_FRAMES
+    dt_us: int = paper.DT_US
+    windows: str = paper.FRAME_WINDOWS
 
     def __post_init__(self):
-        if self.resolution % self.frame_size:
-            raise ValueError(
-                f"frame_size {self.frame_size} must divide resolution {self.resolution}"
-            )
+        object.__setattr__(self, "categories", tuple(self.categories))
+        problems = []
+        unknown = [c for c in self.categories if c not in paper.CATEGORIES]
+        if unknown or not self.categories:
+            problems.append(f"categories must be some of {', '.join(paper.CATEGORIES)}, got "
+                            f"{list(self.categories) if not unknown else unknown}")
+        for name in ("per_category", "resolution", "frame_size", "n_frames", "dt_us"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+                    and value >= 1):
+                problems.append(f"{name} must be a positive integer, got {value!r}")
+        if not (isinstance(self.raw_events_per_category, (int, np.integer))
+                and self.raw_events_per_category >= 0):
+            problems.append("raw_events_per_category must be a non-negative integer, got "
+                            f"{self.raw_events_per_category!r}")
+        if self.oversample is not None and not (
+                isinstance(self.oversample, (int, np.integer)) and self.oversample >= 1):
+            problems.append(f"oversample must be a positive integer, got {self.oversample!r}")
+        if not (isinstance(self.contrast, (int, float)) and np.isfinite(self.contrast)
+                and self.contrast > 0):
+            problems.append(f"contrast must be a positive number, got {self.contrast!r}")
+        if self.windows not in WINDOWS:
+            problems.append(f"windows must be one of {WINDOWS}, got {self.windows!r}")
+        if not problems and self.resolution % self.frame_size:
+            problems.append(f"frame_size {self.frame_size} must divide resolution "
+                            f"{self.resolution}")
+        if problems:
+            raise ValueError("; ".join(problems))
         if self.oversample is None:
             from e2vlib.render import required_oversample
 
-            object.__setattr__(self, "oversample", required_oversample(VIDEO_FRAMES,
-                                                                       self.resolution))
-        if self.per_category < 1:
-            raise ValueError(f"per_category must be at least 1, got {self.per_category}")
+            object.__setattr__(self, "oversample",
+                               required_oversample(paper.N_VIDEO_FRAMES, self.resolution))
+
+    def to_dict(self) -> dict:
+        """A JSON-ready dict of every field (categories as a list)."""
+        d = asdict(self)
+        d["categories"] = list(self.categories)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> BuildConfig:
+        """Inverse of :meth:`to_dict`. Keys missing from configs written before the frame
+        settings were recorded get the values those builds used (100 fixed 5 ms windows)."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValueError(f"unknown build settings {unknown}; known: {sorted(known)}")
+        return cls(**d)
+
+
+def frame_settings(config: dict | None) -> dict | None:
+    """The frame-making fields of a dataset config dict (``n_frames``, ``dt_us``,
+    ``windows``, ``frame_size``), with the defaults of older configs filled in."""
+    if config is None:
+        return None
+    return {
+        "n_frames": int(config.get("n_frames", paper.N_EVENT_FRAMES)),
+        "dt_us": int(config.get("dt_us", paper.DT_US)),
+        "windows": str(config.get("windows", "fixed")),
+        "frame_size": int(config["frame_size"]) if "frame_size" in config else None,
+    }
 
 
 @dataclass(frozen=True)
@@ -93,7 +156,7 @@ class SampleSpec:
 
 @dataclass
 class Sample:
-    """A built sample: frames (N_FRAMES, S, S) uint8 0/1, voxels (32, 32, 32) bool."""
+    """A built sample: frames (n_frames, S, S) uint8 0/1, voxels (32, 32, 32) bool."""
 
     frames: np.ndarray
     voxels: np.ndarray
@@ -132,35 +195,42 @@ def plan_samples(config: BuildConfig) -> list[SampleSpec]:
 
 
 def events_to_frames(events: np.ndarray, sensor_size: tuple[int, int], frame_size: int,
-                     t0_us: int = 0) -> np.ndarray:
-    """The paper's input: 100 binary frames of 5 ms from ``t0_us``, max-pooled to ``frame_size``.
+                     t0_us: int = 0, n_frames: int = paper.N_EVENT_FRAMES,
+                     dt_us: int = paper.DT_US,
+                     windows: str = paper.FRAME_WINDOWS) -> np.ndarray:
+    """The model's input: ``n_frames`` binary frames of ``dt_us`` from ``t0_us``, max-pooled
+    to ``frame_size`` (defaults: the paper's 100 frames of 5 ms, our fixed windows).
 
-    Returns uint8 ``(100, frame_size, frame_size)``; ``sensor_size`` must be square and a
-    multiple of ``frame_size``. Introduced in notebooks/04_building_the_dataset.ipynb.
+    Returns uint8 ``(n_frames, frame_size, frame_size)``; ``sensor_size`` must be square and
+    a multiple of ``frame_size``. Introduced in notebooks/04_building_the_dataset.ipynb.
     """
     width, height = sensor_size
     if width != height or width % frame_size:
         raise ValueError(
             f"sensor {width}x{height} must be square and a multiple of frame_size {frame_size}"
         )
-    frames = accumulate(events, sensor_size, dt_us=DT_US, t0_us=t0_us, n_frames=N_FRAMES)
+    frames = accumulate(events, sensor_size, dt_us=dt_us, t0_us=t0_us, n_frames=n_frames,
+                        windows=windows)
     return downsample(frames, width // frame_size)
 
 
 def events_to_model_input(events: np.ndarray, sensor_size: tuple[int, int],
-                          frame_size: int) -> np.ndarray:
-    """100 binary 5 ms frames from the first event, fitted to ``frame_size`` square.
+                          frame_size: int, n_frames: int = paper.N_EVENT_FRAMES,
+                          dt_us: int = paper.DT_US,
+                          windows: str = paper.FRAME_WINDOWS) -> np.ndarray:
+    """``n_frames`` binary frames of ``dt_us`` from the first event, fitted to ``frame_size``.
 
     For recordings of any sensor size: the frames are centre-cropped to the largest
     square whose side is a multiple of ``frame_size`` and max-pooled down to it. Returns
-    uint8 ``(100, frame_size, frame_size)``. Introduced in notebooks/07_evaluation.ipynb.
+    uint8 ``(n_frames, frame_size, frame_size)``. Introduced in notebooks/07_evaluation.ipynb.
     """
     width, height = sensor_size
     factor = min(width, height) // frame_size
     if factor < 1:
         raise ValueError(f"a {width}x{height} sensor is smaller than frame_size {frame_size}")
     t0 = int(events["t"][0]) if len(events) else 0
-    frames = accumulate(events, sensor_size, dt_us=DT_US, t0_us=t0, n_frames=N_FRAMES)
+    frames = accumulate(events, sensor_size, dt_us=dt_us, t0_us=t0, n_frames=n_frames,
+                        windows=windows)
     side = factor * frame_size
     top, left = (height - side) // 2, (width - side) // 2
     return downsample(frames[:, top:top + side, left:left + side], factor)
@@ -179,13 +249,14 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     from e2vlib.voxels import voxelize
 
     mesh = normalize_mesh(mesh)
-    voxels = voxelize(mesh, 32)
-    video, t_us = render_orbit(mesh, n_frames=VIDEO_FRAMES, fps=VIDEO_FPS,
+    voxels = voxelize(mesh, paper.GRID_SIDE)
+    video, t_us = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
                                resolution=config.resolution, oversample=config.oversample)
     events = simulate_events(video, t_us, contrast_pos=config.contrast,
                              contrast_neg=config.contrast, seed=seed)
     sensor_size = (config.resolution, config.resolution)
-    frames = events_to_frames(events, sensor_size, config.frame_size)
+    frames = events_to_frames(events, sensor_size, config.frame_size, n_frames=config.n_frames,
+                              dt_us=config.dt_us, windows=config.windows)
     return Sample(frames=frames, voxels=voxels, events=events, sensor_size=sensor_size)
 
 
@@ -265,15 +336,15 @@ def build_dataset(
     (root / "events").mkdir(exist_ok=True)
     config_path = root / "config.json"
     if config_path.exists():
-        stored = json.loads(config_path.read_text())
-        if stored != _config_dict(config):
+        stored = BuildConfig.from_dict(json.loads(config_path.read_text())).to_dict()
+        if stored != config.to_dict():
             raise ValueError(
                 f"{config_path} was built with different settings {stored}; use another "
                 "--out folder or delete it to rebuild"
             )
     else:
         with atomic_path(config_path) as tmp:
-            tmp.write_text(json.dumps(_config_dict(config), indent=2) + "\n")
+            tmp.write_text(json.dumps(config.to_dict(), indent=2) + "\n")
 
     specs = plan_samples(config)
     keep = _raw_event_ids(specs, config.raw_events_per_category)
@@ -294,12 +365,6 @@ def build_dataset(
             bar.update()
     bar.close()
     return write_manifest(root, specs)
-
-
-def _config_dict(config: BuildConfig) -> dict:
-    d = asdict(config)
-    d["categories"] = list(config.categories)
-    return d
 
 
 def _raw_event_ids(specs: Sequence[SampleSpec], per_category: int) -> set[str]:
@@ -374,7 +439,9 @@ class E2VDataset(Dataset):
             rows = [r for r in read_manifest(self.root) if r["split"] == split]
             self.items = [(r["id"], r["category"], self.root / "samples" / f"{r['id']}.npz")
                           for r in rows]
-            stored = json.loads((self.root / "config.json").read_text())["frame_size"]
+            self.config = json.loads((self.root / "config.json").read_text())
+            self.config.update(frame_settings(self.config))
+            stored = self.config["frame_size"]
             if frame_size not in (None, stored):
                 raise ValueError(f"{self.root} stores {stored}px frames; frame_size={frame_size}"
                                  " would need a rebuild with --frame-size")
@@ -383,7 +450,9 @@ class E2VDataset(Dataset):
             self.layout = "synthevox3d"
             self.items = [(sample_id, category, scan) for sample_id, category, scan, s
                           in synthevox3d_items(self.root) if s == split]
-            self.frame_size = frame_size or 256
+            self.frame_size = frame_size or paper.INPUT_SIZE_PX
+            self.config = {"layout": "synthevox3d",
+                           **frame_settings({"frame_size": self.frame_size})}
         if categories is not None:
             self.items = [it for it in self.items if it[1] in set(categories)]
         if not self.items:
@@ -400,7 +469,7 @@ class E2VDataset(Dataset):
     @property
     def input_shape(self) -> tuple[int, int, int]:
         """``(D, H, W)`` of the frames."""
-        return (N_FRAMES, self.frame_size, self.frame_size)
+        return (self.config["n_frames"], self.frame_size, self.frame_size)
 
     def arrays(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         """``(frames uint8 (D, H, W), voxels bool (32, 32, 32))`` of item ``index``."""
@@ -427,7 +496,7 @@ def synthevox3d_items(root: Path) -> list[tuple[str, str, Path, str]]:
     split file that we rely on, so scans are split 8:1:1 by a hash of their id (stable
     under adding or removing other scans).
     """
-    from e2vlib.shapes import SHAPENET_SYNSETS
+    from e2vlib.paper import SHAPENET_SYNSETS
 
     items = []
     for synset_dir in sorted(p for p in root.iterdir() if p.is_dir()):

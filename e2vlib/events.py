@@ -65,6 +65,16 @@ def make_events(x: ArrayLike, y: ArrayLike, t: ArrayLike, p: ArrayLike) -> np.nd
     ``t`` is in microseconds (integers, or floats holding whole numbers); ``p`` may be
     -1/+1, 0/1 or bool. The events are **not** reordered: call :func:`validate` or sort
     by ``t`` yourself. Raises :class:`EventError` on mismatched lengths or bad values.
+
+    Examples
+    --------
+    >>> ev = make_events(x=[3, 0], y=[1, 2], t=[10, 25], p=[1, 0])   # p 0/1 becomes -1/+1
+    >>> ev["t"].tolist(), ev["p"].tolist()
+    ([10, 25], [1, -1])
+    >>> make_events([0], [0], [1.5], [1])
+    Traceback (most recent call last):
+    ...
+    e2vlib.events.EventError: t must hold whole numbers; round or convert units first
     """
     cols = [np.atleast_1d(np.asarray(c)) for c in (x, y, t, p)]
     lengths = {len(c) for c in cols}
@@ -154,6 +164,16 @@ def validate(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
     positive ints, every ``x < width`` and ``y < height``, polarity is -1 or +1, and
     timestamps never decrease. Raises :class:`EventError` naming the problem, how many
     events it affects, and the fix. Introduced in notebooks/01_events.ipynb.
+
+    Examples
+    --------
+    >>> ev = make_events(x=[0, 5], y=[0, 0], t=[0, 1], p=[1, 1])
+    >>> len(validate(ev, (8, 4)))
+    2
+    >>> validate(ev, (4, 4))
+    Traceback (most recent call last):
+    ...
+    e2vlib.events.EventError: 1 of 2 events lie outside the 4x4 sensor (x must be < width, y < height); check sensor_size=(width, height) or crop the events
     """
     for _ in iter_checked_chunks(events, sensor_size):
         pass

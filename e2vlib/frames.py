@@ -2,8 +2,9 @@
 
 All functions take an event array of :data:`e2vlib.events.EVENT_DTYPE` (sorted by ``t``,
 microseconds) and ``sensor_size = (width, height)``, validate them, and never modify the
-caller's array. Frames are indexed ``[k, y, x]``; frame ``k`` covers the half-open window
-``[t0 + k*dt, t0 + (k+1)*dt)``.
+caller's array. Frames are indexed ``[k, y, x]``; with fixed windows (the default) frame
+``k`` covers the half-open window ``[t0 + k*dt, t0 + (k+1)*dt)``; ``windows="paper"`` groups events as the
+paper's Eq. 5 does (see :func:`accumulate`).
 
 Introduced in notebooks/02_event_frames.ipynb.
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2vlib import paper
 from e2vlib.events import EventError, check_sensor_size, iter_checked_chunks, validate
 
 MODES = ("binary", "count", "polarity")
@@ -47,75 +49,180 @@ def searchsorted_left(t: np.ndarray, values: np.ndarray) -> np.ndarray:
     return lo
 
 
+def _check_dt(dt_us) -> int:
+    """``dt_us`` as a positive whole number of microseconds, or a clear EventError."""
+    try:
+        ok = bool(np.isfinite(dt_us)) and int(dt_us) == dt_us and dt_us > 0
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise EventError(
+            f"dt_us must be a positive whole number of microseconds, got {dt_us!r} "
+            f"(the paper's 5 ms is dt_us={paper.DT_US})")
+    return int(dt_us)
+
+
+def _check_n_frames(n_frames) -> int:
+    try:
+        ok = bool(np.isfinite(n_frames)) and int(n_frames) == n_frames and n_frames >= 0
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise EventError(f"n_frames must be a non-negative integer, got {n_frames!r}")
+    return int(n_frames)
+
+
 def _resolve_windows(
     events: np.ndarray, dt_us: int, t0_us: int | None, n_frames: int | None
 ) -> tuple[int, int, int]:
-    """Return ``(dt, t0, n)``: defaults filled in, types and ranges checked."""
-    if int(dt_us) != dt_us or dt_us <= 0:
-        raise EventError(f"dt_us must be a positive whole number of microseconds, got {dt_us}")
-    dt_us = int(dt_us)
+    """Return ``(dt, t0, n)`` of fixed windows: defaults filled in, types and ranges checked."""
+    dt_us = _check_dt(dt_us)
     t = events["t"]
     if t0_us is None:
         t0_us = int(t[0]) if len(t) else 0
     if n_frames is None:
         n_frames = window_count(int(t[0]), int(t[-1]), dt_us, int(t0_us)) if len(t) else 0
-    if int(n_frames) != n_frames or n_frames < 0:
-        raise EventError(f"n_frames must be a non-negative integer, got {n_frames}")
-    return dt_us, int(t0_us), int(n_frames)
+    return dt_us, int(t0_us), _check_n_frames(n_frames)
 
 
-def _window_offsets(t: np.ndarray, t0: int, dt: int, frame_size: int) -> np.ndarray | int:
-    """``((t - t0) // dt) * frame_size`` for sorted ``t``, without a division per event.
+def paper_group_bounds(t: np.ndarray, dt_us: int, start: int = 0,
+                       n_groups: int | None = None) -> np.ndarray:
+    """Event-index bounds of the paper's Eq. 5 groups, ``(G + 1,)`` int64.
+
+    Group ``g`` holds events ``bounds[g]:bounds[g + 1]``. A group starts at its first event
+    ``t_j`` and takes every following event with ``t_i - t_j <= dt_us`` (inclusive); the
+    first event beyond that starts the next group. Grouping starts at index ``start`` and
+    stops after ``n_groups`` groups (default: when the events run out), so no group is
+    empty. ``t`` must be sorted (microseconds).
+
+    Examples
+    --------
+    >>> t = np.array([0, 3, 5, 6, 20, 21])
+    >>> paper_group_bounds(t, dt_us=5).tolist()   # {0, 3, 5} {6} {20, 21}
+    [0, 3, 4, 6]
+    >>> paper_group_bounds(t, dt_us=5, n_groups=2).tolist()
+    [0, 3, 4]
+    """
+    bounds = [int(start)]
+    limit = np.inf if n_groups is None else int(n_groups)
+    while bounds[-1] < len(t) and len(bounds) - 1 < limit:
+        group_start = int(t[bounds[-1]])
+        # first event with t > t_j + dt, i.e. t >= t_j + dt + 1 (integer microseconds)
+        bounds.append(int(searchsorted_left(t, [group_start + dt_us + 1])[0]))
+    return np.asarray(bounds, dtype=np.int64)
+
+
+def _window_offsets(t: np.ndarray, t0: int, dt: int, frame_elements: int) -> np.ndarray | int:
+    """``((t - t0) // dt) * frame_elements`` for sorted ``t``, without a division per event.
 
     A block of sorted events spans few windows (usually one), so the window index is a
     constant, or a few runs of constants found by binary search on the window edges.
     """
     k_first, k_last = (int(t[0]) - t0) // dt, (int(t[-1]) - t0) // dt
     if k_first == k_last:
-        return k_first * frame_size
+        return k_first * frame_elements
     cuts = np.searchsorted(t, t0 + dt * np.arange(k_first + 1, k_last + 1, dtype=np.int64))
     run_lengths = np.diff(cuts, prepend=0, append=len(t))
-    return np.repeat(np.arange(k_first, k_last + 1) * frame_size, run_lengths)
+    return np.repeat(np.arange(k_first, k_last + 1) * frame_elements, run_lengths)
+
+
+def _group_offsets(bounds: np.ndarray, lo: int, hi: int, frame_elements: int) -> np.ndarray | int:
+    """``group(i) * frame_elements`` for event indices ``lo <= i < hi`` given group ``bounds``."""
+    g_first = int(np.searchsorted(bounds, lo, side="right")) - 1
+    g_last = int(np.searchsorted(bounds, hi - 1, side="right")) - 1
+    if g_first == g_last:
+        return g_first * frame_elements
+    edges = np.clip(bounds[g_first:g_last + 2], lo, hi)
+    return np.repeat(np.arange(g_first, g_last + 1) * frame_elements, np.diff(edges))
+
+
+MAX_FRAMES_BYTES: int = 8 * 2**30
+"""Largest frame stack :func:`accumulate` allocates (8 GiB); larger requests raise EventError."""
+
+WINDOWS = ("fixed", "paper")
 
 
 def accumulate(
     events: np.ndarray,
     sensor_size: tuple[int, int],
-    dt_us: int = 5000,
+    dt_us: int = paper.DT_US,
     t0_us: int | None = None,
     n_frames: int | None = None,
     mode: str = "binary",
+    windows: str = paper.FRAME_WINDOWS,
 ) -> np.ndarray:
     """Accumulate events into a stack of frames, one per time window of ``dt_us``.
 
     Modes:
       * ``"binary"`` -- ``(n, H, W)`` uint8, 1 where a pixel fired at least once in the
-        window, whatever the polarity (the paper's Eq. 4-5, E2V's input);
+        window, whatever the polarity (the paper's Eq. 4, E2V's input);
       * ``"count"`` -- ``(n, H, W)`` int32, number of events per pixel and window;
       * ``"polarity"`` -- ``(n, 2, H, W)`` int32 counts, channel 0 = OFF (-1), 1 = ON (+1).
 
-    Frame ``k`` covers ``[t0 + k*dt, t0 + (k+1)*dt)``. ``t0_us`` defaults to the first
-    event's time; ``n_frames`` to as many windows as cover the last event (the window
-    holding the last event is kept). Events outside the windows are left out.
+    Windows:
+      * ``"fixed"`` (default, our choice) -- frame ``k`` covers the clock window
+        ``[t0 + k*dt, t0 + (k+1)*dt)``; a window without events gives an empty frame;
+      * ``"paper"`` -- the paper's Eq. 5: a group starts at its first event ``t_j`` and
+        takes events while ``t_i - t_j <= dt`` (inclusive), so groups start at events and
+        none is empty (see :func:`paper_group_bounds`). With ``n_frames``, later groups are
+        dropped and missing ones are empty frames at the end.
+
+    ``t0_us`` defaults to the first event's time (events before it are left out);
+    ``n_frames`` to as many windows or groups as cover the last event. Events outside the
+    windows are left out. The frame stack may not exceed :data:`MAX_FRAMES_BYTES`.
     Introduced in notebooks/02_event_frames.ipynb.
+
+    Examples
+    --------
+    >>> from e2vlib.events import make_events
+    >>> ev = make_events(x=[0, 1, 1, 0], y=[0, 0, 0, 0], t=[0, 4, 6, 11], p=[1, -1, 1, 1])
+    >>> accumulate(ev, (2, 1), dt_us=5, mode="count")[:, 0].tolist()   # [0,5) [5,10) [10,15)
+    [[1, 1], [0, 1], [1, 0]]
+    >>> accumulate(ev, (2, 1), dt_us=5, mode="count", windows="paper")[:, 0].tolist()
+    [[1, 1], [1, 1]]
     """
     width, height = check_sensor_size(sensor_size)
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    if windows not in WINDOWS:
+        raise ValueError(f"windows must be one of {WINDOWS}, got {windows!r}")
+    if not isinstance(events, np.ndarray) or events.ndim != 1:
+        validate(events, (width, height))  # raises a named EventError for wrong shapes/dtypes
     channels = 2 if mode == "polarity" else 1
     if len(events) == 0:  # nothing to read; still check dtype and arguments
         validate(events, (width, height))
-    dt, t0, n = _resolve_windows(events, dt_us, t0_us, n_frames)
+    t = events["t"]
+    if windows == "fixed":
+        dt, t0, n = _resolve_windows(events, dt_us, t0_us, n_frames)
+        bounds = None
+    else:
+        dt = _check_dt(dt_us)
+        t0 = int(t[0]) if t0_us is None and len(t) else int(t0_us or 0)
+        n_wanted = None if n_frames is None else _check_n_frames(n_frames)
+        first = int(searchsorted_left(t, [t0])[0])
+        bounds = paper_group_bounds(t, dt, start=first, n_groups=n_wanted)
+        n = len(bounds) - 1 if n_wanted is None else n_wanted
     plane = height * width
-    frame_size = channels * plane
+    frame_elements = channels * plane
+    itemsize = 1 if mode == "binary" else 4
+    if n * frame_elements * itemsize > MAX_FRAMES_BYTES:
+        raise EventError(
+            f"{n} frames of {frame_elements} values would take "
+            f"{n * frame_elements * itemsize / 2**30:.1f} GiB (limit "
+            f"{MAX_FRAMES_BYTES / 2**30:.0f} GiB, frames.MAX_FRAMES_BYTES); check dt_us and "
+            f"t0_us against the event times ({int(t[0]) if len(t) else 0}.."
+            f"{int(t[-1]) if len(t) else 0} us) or pass n_frames")
     # Sorted times: the events inside the windows are one contiguous slice [lo, hi).
-    lo, hi = searchsorted_left(events["t"], [t0, t0 + n * dt])
+    if bounds is None:
+        lo, hi = searchsorted_left(t, [t0, t0 + n * dt])
+    else:
+        lo, hi = int(bounds[0]), int(bounds[-1])
 
     # One pass over the events, block by block (see e2vlib.events.iter_checked_chunks):
     # each block is checked, then turned into flat indices k*C*H*W + c*H*W + y*W + x
     # while it is still in the CPU cache. Binary frames are set directly; counts collect
     # the indices for a single np.bincount at the end (np.add.at would be ~20x slower).
-    binary = np.zeros(n * frame_size, dtype=np.uint8) if mode == "binary" else None
+    binary = np.zeros(n * frame_elements, dtype=np.uint8) if mode == "binary" else None
     indices = None if mode == "binary" else np.empty(hi - lo, dtype=np.intp)
     for start, block in iter_checked_chunks(events, (width, height)):
         a, b = max(lo - start, 0), min(hi - start, len(block))
@@ -124,7 +231,10 @@ def accumulate(
         block = block[a:b]
         flat = block["y"].astype(np.intp)
         flat *= width
-        flat += _window_offsets(block["t"], t0, dt, frame_size)
+        if bounds is None:
+            flat += _window_offsets(block["t"], t0, dt, frame_elements)
+        else:
+            flat += _group_offsets(bounds, start + a, start + b, frame_elements)
         flat += block["x"]
         if mode == "polarity":
             flat += (block["p"] > 0) * plane
@@ -134,7 +244,7 @@ def accumulate(
             indices[start + a - lo:start + b - lo] = flat
     if binary is not None:
         return binary.reshape(n, height, width)
-    counts = np.bincount(indices, minlength=n * frame_size).astype(np.int32)
+    counts = np.bincount(indices, minlength=n * frame_elements).astype(np.int32)
     shape = (n, 2, height, width) if mode == "polarity" else (n, height, width)
     return counts.reshape(shape)
 

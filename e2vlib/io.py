@@ -52,6 +52,21 @@ def load_events(path: str | os.PathLike) -> tuple[np.ndarray, tuple[int, int]]:
     Times come back as int64 microseconds, polarity as -1/+1, sorted by time (stable).
     Missing files raise FileNotFoundError; truncated or corrupted files raise ValueError
     naming the file. Introduced in notebooks/01_events.ipynb.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from e2vlib.events import make_events
+    >>> path = Path(tempfile.mkdtemp()) / "ev.txt"
+    >>> _ = save_events(path, make_events([1, 2], [0, 3], [500, 1500], [1, -1]), (4, 4))
+    >>> print(path.read_text())      # rpg/ESIM text: seconds, polarity 0/1
+    4 4
+    0.000500 1 0 1
+    0.001500 2 3 0
+    <BLANKLINE>
+    >>> events, sensor_size = load_events(path)
+    >>> events["t"].tolist(), events["p"].tolist(), sensor_size
+    ([500, 1500], [1, -1], (4, 4))
     """
     path = Path(path)
     fmt = _format_of(path)

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-IOU_THRESHOLDS = (0.2, 0.3, 0.4, 0.5)  # the thresholds Pix2Vox reports
+from e2vlib import paper
+
+IOU_THRESHOLDS = paper.IOU_THRESHOLDS  # the thresholds Pix2Vox reports (our choice to follow)
 
 
 def _to_numpy(a) -> np.ndarray:
@@ -31,12 +33,22 @@ def _check_pair(pred, gt) -> tuple[np.ndarray, np.ndarray]:
     return pred, gt
 
 
-def iou(pred, gt, threshold: float = 0.3):
+def iou(pred, gt, threshold: float = paper.IOU_THRESHOLD):
     """Intersection over union of ``pred >= threshold`` and ``gt > 0.5``.
 
     Returns a float for one grid, a numpy array ``(B,)`` for a batch (one IoU per sample,
     as Pix2Vox computes it before averaging). Two empty grids count as a perfect match
-    (IoU 1). Introduced in notebooks/07_evaluation.ipynb.
+    (IoU 1). The default threshold 0.3 is our choice (Pix2Vox's convention; the paper does
+    not state its threshold). Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> gt = np.zeros((32, 32, 32)); gt[:8] = 1          # 8 of 32 slabs
+    >>> pred = np.zeros((32, 32, 32)); pred[4:12] = 0.9  # shifted by 4: overlap 4, union 12
+    >>> round(iou(pred, gt), 4)
+    0.3333
+    >>> iou(pred, gt, threshold=0.95)                    # nothing predicted at 0.95
+    0.0
     """
     pred, gt = _check_pair(pred, gt)
     p = pred >= threshold
@@ -70,7 +82,8 @@ def surface_points(occupancy: np.ndarray, n_points: int = 8192, seed: int = 0) -
     return np.asarray(points)
 
 
-def fscore(pred, gt, threshold: float = 0.3, distance: float = 0.01,
+def fscore(pred, gt, threshold: float = paper.IOU_THRESHOLD,
+           distance: float = paper.FSCORE_DISTANCE,
            n_points: int = 8192, seed: int = 0):
     """F-score of the surfaces of ``pred >= threshold`` and ``gt`` at ``distance``.
 
@@ -79,12 +92,21 @@ def fscore(pred, gt, threshold: float = 0.3, distance: float = 0.01,
     point, recall the reverse, F = 2PR / (P + R). ``distance`` is a fraction of the unit
     cube's side: 0.01 is Pix2Vox++'s F-Score@1%. Two empty grids score 1, one empty grid
     0. Returns a float, or ``(B,)`` for a batch. Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> gt = np.zeros((32, 32, 32)); gt[8:24, 8:24, 8:24] = 1
+    >>> fscore(gt, gt)                          # the same surface, the same samples
+    1.0
+    >>> fscore(np.zeros_like(gt), gt)           # nothing predicted
+    0.0
     """
     scores = fscores(pred, gt, threshold, (distance,), n_points, seed)
     return scores[..., 0] if scores.ndim == 2 else float(scores[0])
 
 
-def fscores(pred, gt, threshold: float = 0.3, distances=(0.01, 0.2),
+def fscores(pred, gt, threshold: float = paper.IOU_THRESHOLD,
+            distances=(paper.FSCORE_DISTANCE, paper.FSCORE_DISTANCE_REPORTED),
             n_points: int = 8192, seed: int = 0) -> np.ndarray:
     """:func:`fscore` at several distances from one set of surface samples.
 
@@ -92,6 +114,11 @@ def fscores(pred, gt, threshold: float = 0.3, distances=(0.01, 0.2),
     """
     from scipy.spatial import cKDTree
 
+    if isinstance(n_points, bool) or not isinstance(n_points, int | np.integer) or n_points < 1:
+        raise ValueError(f"n_points must be a positive integer (8192 is usual), got {n_points!r}")
+    distances = tuple(distances)
+    if not distances or not all(np.isfinite(d) and d > 0 for d in distances):
+        raise ValueError(f"distances must be positive fractions of the cube side, got {distances}")
     pred, gt = _check_pair(pred, gt)
     if pred.ndim == 4:
         return np.stack([fscores(p, g, threshold, distances, n_points, seed)

@@ -28,18 +28,22 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-FOCAL_LENGTH_MM = 80.0
+from e2vlib import paper
+
+FOCAL_LENGTH_MM = paper.FOCAL_LENGTH_MM
 """Focal length of the paper's virtual camera (mm)."""
-SENSOR_SIZE_MM = 36.0
-"""Sensor width (and height: our images are square) of the virtual camera (mm)."""
+SENSOR_SIZE_MM = paper.SENSOR_WIDTH_MM
+"""Sensor width (and height: our images are square) of the virtual camera (mm); our choice,
+the paper gives only the focal length (see :data:`e2vlib.paper.SENSOR_WIDTH_MM`)."""
 VIEW_ANGLE_DEG = math.degrees(2.0 * math.atan(0.5 * SENSOR_SIZE_MM / FOCAL_LENGTH_MM))
 """Full view angle of an 80 mm lens on a 36 mm sensor, about 25.36 degrees."""
 AZIMUTH_START_DEG = -90.0
 """Azimuth of the first camera position (on the -y side, looking along +y)."""
-Z_TOP_M, Z_BOTTOM_M = 2.0, -2.0
+Z_TOP_M, Z_BOTTOM_M = paper.ORBIT_Z_TOP_M, paper.ORBIT_Z_BOTTOM_M
 """Camera heights at the first and last frame (m)."""
-RADIUS_END_M, RADIUS_MID_M = 4.0, 6.0
-"""Horizontal camera radius at the ends and at mid height (m)."""
+RADIUS_END_M, RADIUS_MID_M = paper.ORBIT_SIZE_END_M, paper.ORBIT_SIZE_MID_M
+"""Horizontal camera radius at the ends and at mid height (m); the paper's 4 m and 6 m read
+as radii (our reading, :data:`e2vlib.paper.ORBIT_READING`)."""
 
 _CLIPPING_RANGE = (0.1, 50.0)  # near/far planes (m); objects fit in the unit cube
 _BACKGROUND = (1.0, 1.0, 1.0)
@@ -51,6 +55,15 @@ def _check_count(name: str, value: int, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
     return int(value)
+
+
+def _video_frames(n_video_frames: int, n_frames: int | None) -> int:
+    """Resolve the old keyword ``n_frames`` (video frames) to ``n_video_frames``."""
+    if n_frames is not None:
+        if n_video_frames != paper.N_VIDEO_FRAMES and n_video_frames != n_frames:
+            raise TypeError("give n_video_frames or its old name n_frames, not both")
+        n_video_frames = n_frames
+    return _check_count("n_video_frames (formerly n_frames)", n_video_frames, 2)
 
 
 def _spiral(s: np.ndarray) -> np.ndarray:
@@ -68,31 +81,33 @@ def _orbit_s(n: int) -> np.ndarray:
     return np.arange(n, dtype=np.float64) / (n - 1)
 
 
-def orbit_cameras(n_frames: int = 120) -> np.ndarray:
-    """Camera positions of the paper's spiral orbit, shape ``(n_frames, 3)``, in metres.
+def orbit_cameras(n_video_frames: int = paper.N_VIDEO_FRAMES, *,
+                  n_frames: int | None = None) -> np.ndarray:
+    """Camera positions of the paper's spiral orbit, shape ``(n_video_frames, 3)``, in metres.
 
-    Frame ``i`` sits at orbit parameter ``s = i / (n_frames - 1)``: height ``2 - 4 s``,
+    Frame ``i`` sits at orbit parameter ``s = i / (n_video_frames - 1)``: height ``2 - 4 s``,
     horizontal radius ``6 - z**2 / 2`` (4 m at the ends, 6 m at ``z = 0``) and azimuth
     ``-90 + 360 s`` degrees (one counter-clockwise turn starting on the -y side). Every
     camera looks at the origin with +z up.
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _check_count("n_frames", n_frames, 2)
+    n = _video_frames(n_video_frames, n_frames)
     return _spiral(_orbit_s(n))
 
 
-def orbit_angles(n_frames: int = 120) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def orbit_angles(n_video_frames: int = paper.N_VIDEO_FRAMES, *, n_frames: int | None = None,
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-frame ``(azimuth_deg, elevation_deg, distance_m)`` of :func:`orbit_cameras`.
 
     Azimuth is measured counter-clockwise from +x (it runs from -90 to 270 degrees),
     elevation is the camera's angle above the horizontal plane through the object
     (positive while the camera is above it), distance is from the camera to the origin.
-    Each array has shape ``(n_frames,)``.
+    Each array has shape ``(n_video_frames,)``.
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _check_count("n_frames", n_frames, 2)
+    n = _video_frames(n_video_frames, n_frames)
     s = _orbit_s(n)
     pos = _spiral(s)
     horizontal = np.hypot(pos[:, 0], pos[:, 1])
@@ -138,16 +153,18 @@ def project_points(points: ArrayLike, camera_position: ArrayLike, resolution: in
 
 
 def pixel_motion_per_frame(
-    n_frames: int = 120,
+    n_video_frames: int = paper.N_VIDEO_FRAMES,
     resolution: int = 256,
     oversample: int = 1,
     points: ArrayLike | None = None,
+    *,
+    n_frames: int | None = None,
 ) -> np.ndarray:
     """Largest image motion (pixels) of the object between consecutive rendered frames.
 
     Projects ``points`` (default: a 9 x 9 x 9 grid filling the unit cube
     ``[-0.5, 0.5]^3``, where normalized objects live) with every camera of the orbit as
-    :func:`render_orbit` samples it (``oversample * (n_frames - 1) + 1`` frames) and returns
+    :func:`render_orbit` samples it (``oversample * (n_video_frames - 1) + 1`` frames) and returns
     the maximum displacement over the points for each consecutive pair, shape
     ``(n_rendered - 1,)``. The frame rate does not enter: motion per frame depends only on
     how densely the path is sampled. The paper's 120 frames at 256 px move parts of the
@@ -156,7 +173,7 @@ def pixel_motion_per_frame(
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _check_count("n_frames", n_frames, 2)
+    n = _video_frames(n_video_frames, n_frames)
     k = _check_count("oversample", oversample, 1)
     res = _check_count("resolution", resolution, 1)
     if points is None:
@@ -169,7 +186,8 @@ def pixel_motion_per_frame(
 
 
 def required_oversample(
-    n_frames: int = 120, resolution: int = 256, max_motion_px: float = 1.0
+    n_video_frames: int = paper.N_VIDEO_FRAMES, resolution: int = 256,
+    max_motion_px: float = 1.0, *, n_frames: int | None = None,
 ) -> int:
     """Smallest ``oversample`` for which :func:`pixel_motion_per_frame` stays within
     ``max_motion_px`` pixels on every frame pair (searched up to 64).
@@ -178,6 +196,7 @@ def required_oversample(
     """
     if not (math.isfinite(max_motion_px) and max_motion_px > 0):
         raise ValueError(f"max_motion_px must be a positive number, got {max_motion_px!r}")
+    n_frames = _video_frames(n_video_frames, n_frames)
     worst = float(pixel_motion_per_frame(n_frames, resolution, 1).max())
     k = max(1, math.ceil(worst / max_motion_px))  # motion shrinks about as 1/k
     while k <= 64:
@@ -235,13 +254,37 @@ def _aim(camera, position: np.ndarray) -> None:
     camera.clipping_range = _CLIPPING_RANGE
 
 
+MAX_OBJECT_SIZE_M, MIN_OBJECT_SIZE_M = 2.0, 0.01
+"""Largest and smallest bounding-box side :func:`render_orbit` accepts (m): the orbit is
+built for objects normalised to the unit cube (the paper's 1 m^3)."""
+
+
+def _check_in_view(bounds) -> None:
+    """Refuse meshes the orbit cannot frame: off-centre, huge or tiny (m)."""
+    lo, hi = np.asarray(bounds[0::2], dtype=float), np.asarray(bounds[1::2], dtype=float)
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError("the mesh has no finite vertices; nothing to render")
+    size, centre = float(np.max(hi - lo)), (lo + hi) / 2
+    fix = "normalize it with e2vlib.shapes.normalize_mesh (centred, longest side 1 m)"
+    if size > MAX_OBJECT_SIZE_M or size < MIN_OBJECT_SIZE_M:
+        raise ValueError(
+            f"the mesh's longest side is {size:.3g} m, outside [{MIN_OBJECT_SIZE_M}, "
+            f"{MAX_OBJECT_SIZE_M}] m that the orbit frames; {fix}")
+    if float(np.max(np.abs(centre))) > 0.5:
+        raise ValueError(
+            f"the mesh is centred at {np.round(centre, 3).tolist()} m, more than 0.5 m from "
+            f"the origin the camera looks at; {fix}")
+
+
 def render_orbit(
     mesh,
-    n_frames: int = 120,
-    fps: float = 240,
+    n_video_frames: int = paper.N_VIDEO_FRAMES,
+    fps: float = paper.VIDEO_FPS,
     resolution: int = 256,
     oversample: int = 1,
     anti_aliasing: bool = True,
+    *,
+    n_frames: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Render ``mesh`` along the spiral orbit; return ``(video, t_us)``.
 
@@ -253,8 +296,8 @@ def render_orbit(
     ``video`` has shape ``(n, resolution, resolution)``, float32 gray in [0, 1] holding
     8-bit levels (``k / 255``), indexed ``[frame, row, column]`` with row 0 at the top;
     ``t_us[i] = round(i * 1e6 / (oversample * fps))`` (int64 microseconds).
-    With ``oversample = 1``, ``n = n_frames`` frames at ``fps``. With ``oversample = k``, the
-    same time span is sampled ``k`` times more densely: ``n = k * (n_frames - 1) + 1``
+    With ``oversample = 1``, ``n = n_video_frames`` frames at ``fps``. With ``oversample = k``,
+    the same time span is sampled ``k`` times more densely: ``n = k * (n_video_frames - 1) + 1``
     frames at ``k * fps`` along the same spiral, so ``video[::k]`` equals the plain render
     and an event simulator sees the object move at most about 1 px per frame (see
     :func:`pixel_motion_per_frame`). ``anti_aliasing`` uses VTK's supersampling, which
@@ -262,13 +305,19 @@ def render_orbit(
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _check_count("n_frames", n_frames, 2)
+    n = _video_frames(n_video_frames, n_frames)
     res = _check_count("resolution", resolution, 1)
     k = _check_count("oversample", oversample, 1)
     if not (isinstance(fps, (int, float, np.integer, np.floating)) and math.isfinite(fps)
             and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps!r}")
+    if k * float(fps) > 1e6:
+        raise ValueError(
+            f"fps x oversample = {k * float(fps):g} frames/s puts several frames in one "
+            f"microsecond, so their whole-microsecond time stamps would coincide; use "
+            f"fps <= {1e6 / k:g}")
     poly = to_polydata(mesh)
+    _check_in_view(poly.bounds)
     n_out = _n_rendered(n, k)
     cameras = _spiral(_orbit_s(n_out))
     t_us = np.round(np.arange(n_out) * 1e6 / (k * float(fps))).astype(np.int64)
@@ -295,4 +344,8 @@ def render_orbit(
             video[i] = gray.astype(np.float32) / np.float32(255.0)
     finally:
         plotter.close()
+    if float(video.max() - video.min()) < 1.0 / 255.0:
+        raise ValueError(
+            "the rendered video is blank (every pixel the same grey): the object is not in "
+            "view; normalize the mesh with e2vlib.shapes.normalize_mesh first")
     return video, t_us

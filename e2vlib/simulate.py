@@ -31,6 +31,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from e2vlib import paper
 from e2vlib.events import EVENT_DTYPE
 
 MIN_CONTRAST = 0.01
@@ -107,8 +108,8 @@ def _check_positive(name: str, value: float, allow_zero: bool = False) -> float:
 
 def draw_thresholds(
     shape: tuple[int, int],
-    contrast_pos: float = 0.2,
-    contrast_neg: float = 0.2,
+    contrast_pos: float = paper.CONTRAST_THRESHOLD,
+    contrast_neg: float = paper.CONTRAST_THRESHOLD,
     contrast_sigma: float = 0.0,
     seed: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -134,8 +135,8 @@ def draw_thresholds(
 def simulate_events(
     video: ArrayLike,
     t_us: ArrayLike,
-    contrast_pos: float = 0.2,
-    contrast_neg: float = 0.2,
+    contrast_pos: float = paper.CONTRAST_THRESHOLD,
+    contrast_neg: float = paper.CONTRAST_THRESHOLD,
     contrast_sigma: float = 0.0,
     refractory_us: float = 0,
     log_eps: float = 1e-3,

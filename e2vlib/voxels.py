@@ -19,6 +19,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
+from e2vlib import paper
 from e2vlib.files import atomic_path
 
 # A tiny, irrational-looking offset of the ray positions (in voxels) so that no ray passes
@@ -129,6 +130,11 @@ def _ray_windings(tri: np.ndarray, resolution: int, axis: int) -> tuple[np.ndarr
     return up.transpose(inverse), down.transpose(inverse)
 
 
+MAX_SURFACE_POINTS: int = 50_000_000
+"""Most surface samples :func:`voxelize` makes for the thin-part rule (about 2.4 GB of
+float64 points); a mesh needing more (one far larger than the grid cube) is refused."""
+
+
 def _surface_points(tri: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
     """Points covering every triangle at spacing about ``_SURFACE_SPACING`` voxels.
 
@@ -158,6 +164,14 @@ def _surface_points(tri: np.ndarray, resolution: int) -> tuple[np.ndarray, np.nd
     bc_len = opposite[rows, first]
     height = norm / np.maximum(bc_len, 1e-300)
     n_rows = np.ceil(height / spacing).astype(np.int64) + 1  # rows at s = k / (n_rows - 1)
+    # estimate the points before making them: rows x points per row, at most bc / spacing + 2
+    estimate = float(np.sum(n_rows * (np.ceil(bc_len / spacing) + 1)))
+    if estimate > MAX_SURFACE_POINTS:
+        size = float(np.max(tri.max(axis=(0, 1)) - tri.min(axis=(0, 1))))
+        raise ValueError(
+            f"voxelizing this mesh would sample about {estimate:.3g} surface points (limit "
+            f"{MAX_SURFACE_POINTS:.0e}, voxels.MAX_SURFACE_POINTS): it is {size:.3g} m across "
+            f"against the 1 m grid cube; normalize it first with e2vlib.shapes.normalize_mesh")
     # (triangle, row) pairs
     f_row = np.repeat(rows, n_rows)
     k = np.arange(len(f_row)) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
@@ -204,7 +218,7 @@ def _thin_surface(solid: np.ndarray, tri: np.ndarray, resolution: int) -> np.nda
     return out
 
 
-def voxelize(mesh: trimesh.Trimesh, resolution: int = 32) -> np.ndarray:
+def voxelize(mesh: trimesh.Trimesh, resolution: int = paper.GRID_SIDE) -> np.ndarray:
     """Solid occupancy grid of a mesh over the cube ``[-0.5, 0.5]^3``.
 
     Returns a ``bool`` array ``(resolution,) * 3`` indexed ``[x, y, z]``; voxel ``i`` along x
@@ -235,8 +249,15 @@ def voxelize(mesh: trimesh.Trimesh, resolution: int = 32) -> np.ndarray:
 
     Known answers (see tests/test_voxels.py): a centred box of half-size 0.25 gives exactly
     the central 16^3 block at resolution 32; a sphere of radius 0.5 fills about pi/6 of it.
+    A mesh far larger than the cube is refused (see :data:`MAX_SURFACE_POINTS`).
 
     Introduced in notebooks/04_building_the_dataset.ipynb.
+
+    Examples
+    --------
+    >>> grid = voxelize(trimesh.creation.box((0.5, 0.5, 0.5)))
+    >>> grid.shape, int(grid.sum()) == 16 ** 3, bool(grid[8:24, 8:24, 8:24].all())
+    ((32, 32, 32), True, True)
     """
     r = _check_resolution(resolution)
     tri = _check_mesh(mesh)

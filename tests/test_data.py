@@ -171,3 +171,52 @@ def test_data_small_regenerates_identically(tmp_path):
         committed = load_sample(root / "samples" / path.name)
         np.testing.assert_array_equal(voxels, committed[1])
         np.testing.assert_array_equal(frames, committed[0])
+
+
+def test_build_config_records_how_frames_are_made():
+    config = BuildConfig(categories=("chair",), per_category=2, oversample=3, n_frames=50,
+                         dt_us=10_000, windows="paper")
+    d = config.to_dict()
+    assert (d["n_frames"], d["dt_us"], d["windows"]) == (50, 10_000, "paper")
+    assert BuildConfig.from_dict(json.loads(json.dumps(d))) == config
+    # configs written before the frame settings existed read as 100 fixed 5 ms windows
+    old = {k: v for k, v in d.items() if k not in ("n_frames", "dt_us", "windows")}
+    assert BuildConfig.from_dict(old).to_dict() | {"n_frames": 50, "dt_us": 10_000,
+                                                  "windows": "paper"} == d
+    assert (BuildConfig.from_dict(old).n_frames, BuildConfig.from_dict(old).windows) == (
+        100, "fixed")
+    with pytest.raises(ValueError, match="unknown build settings"):
+        BuildConfig.from_dict(d | {"bogus": 1})
+
+
+def test_data_small_records_its_frame_grouping():
+    stored = json.loads((REPO / "data_small" / "config.json").read_text())
+    assert (stored["n_frames"], stored["dt_us"], stored["windows"]) == (100, 5000, "fixed")
+    assert E2VDataset(REPO / "data_small", "test").config["windows"] == "fixed"
+
+
+@pytest.mark.parametrize("change, problem", [
+    ({"oversample": 0}, "oversample"), ({"per_category": 0}, "per_category"),
+    ({"categories": ()}, "categories"), ({"categories": ("bogus",)}, "bogus"),
+    ({"windows": "clock"}, "windows"), ({"dt_us": -1}, "dt_us"), ({"contrast": 0.0}, "contrast"),
+    ({"frame_size": 0}, "frame_size"),
+])
+def test_build_config_refuses_bad_settings_by_name(change, problem):
+    settings = {"categories": ("chair",), "per_category": 2, "oversample": 3} | change
+    with pytest.raises(ValueError, match=problem):
+        BuildConfig(**settings)
+
+
+def test_a_paper_windows_build_stores_eq5_frames(tmp_path):
+    from e2vlib.data import events_to_frames
+    from e2vlib.io import load_events
+
+    config = BuildConfig(categories=("chair",), per_category=3, resolution=32, frame_size=16,
+                         oversample=1, windows="paper", n_frames=100)
+    build_dataset(tmp_path, config, progress=False)
+    ds = E2VDataset(tmp_path, "test")
+    assert ds.config["windows"] == "paper"
+    events, sensor = load_events(ds.raw_events_path(0))
+    expected = events_to_frames(events, sensor, 16, t0_us=0, windows="paper")
+    np.testing.assert_array_equal(ds.arrays(0)[0], expected)
+    assert ds.arrays(0)[0][: int(expected.any(axis=(1, 2)).sum())].any(axis=(1, 2)).all()

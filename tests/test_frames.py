@@ -128,3 +128,92 @@ def test_downsample_max_for_binary_sum_for_counts():
     assert downsample(pol, 2).shape == (2, 2, 2, 3) and downsample(pol, 2).sum() == pol.sum()
     with pytest.raises(ValueError, match="divisible"):
         downsample(np.zeros((1, 5, 4)), 2)
+
+
+# --- the paper's Eq. 5 grouping (windows="paper") ------------------------------------------
+
+
+def _eq5_reference(t, dt):
+    """Eq. 5 written out event by event: a list of groups (lists of event indices)."""
+    groups, j = [], None
+    for i, ti in enumerate(t):
+        if j is None or ti - t[j] > dt:
+            groups.append([])
+            j = i
+        groups[-1].append(i)
+    return groups
+
+
+def test_paper_groups_are_inclusive_and_start_at_events():
+    # dt = 5: the group of t_j = 0 takes 0, 3 and 5 (5 - 0 <= 5, inclusive); 6 starts the
+    # next group, whose window [6, 11] is closed at 11; 20 starts a third. Fixed windows
+    # would instead split at the clock ticks 5, 10, 15, 20 and leave [15, 20) empty.
+    ev = make_events([0, 1, 2, 3, 0, 1], [0] * 6, [0, 3, 5, 6, 11, 20], [1] * 6)
+    paper = accumulate(ev, (4, 1), dt_us=5, mode="count", windows="paper")
+    assert paper[:, 0].tolist() == [[1, 1, 1, 0], [1, 0, 0, 1], [0, 1, 0, 0]]
+    fixed = accumulate(ev, (4, 1), dt_us=5, mode="count")
+    assert fixed[:, 0].tolist() == [[1, 1, 0, 0], [0, 0, 1, 1], [1, 0, 0, 0], [0, 0, 0, 0],
+                                    [0, 1, 0, 0]]
+
+
+def test_paper_groups_are_never_empty_across_gaps():
+    ev = make_events([0, 0, 0], [0, 0, 0], [0, 1_000, 1_000_000], [1, -1, 1])
+    frames = accumulate(ev, (1, 1), dt_us=5000, windows="paper")
+    assert frames.shape == (2, 1, 1) and frames.min() == 1  # two groups, none empty
+    assert accumulate(ev, (1, 1), dt_us=5000).shape == (201, 1, 1)  # fixed: 199 empty
+
+
+def test_paper_groups_with_n_frames_pad_at_the_end_and_drop_later_groups():
+    ev = make_events([0, 1, 0], [0, 0, 0], [0, 10, 20], [1, 1, 1])
+    padded = accumulate(ev, (2, 1), dt_us=5, n_frames=5, mode="count", windows="paper")
+    assert padded[:, 0].tolist() == [[1, 0], [0, 1], [1, 0], [0, 0], [0, 0]]
+    cut = accumulate(ev, (2, 1), dt_us=5, n_frames=2, mode="count", windows="paper")
+    assert cut[:, 0].tolist() == [[1, 0], [0, 1]]  # the group at t = 20 is dropped
+
+
+def test_paper_groups_start_at_t0():
+    ev = make_events([0, 1, 0], [0, 0, 0], [0, 10, 12], [1, 1, 1])
+    frames = accumulate(ev, (2, 1), dt_us=5, t0_us=5, mode="count", windows="paper")
+    assert frames[:, 0].tolist() == [[1, 1]]  # the event at t = 0 is before t0: left out
+
+
+def test_paper_groups_match_the_event_by_event_reference():
+    rng = np.random.default_rng(3)
+    # bursts and gaps, with repeated time stamps
+    t = np.sort(np.concatenate([rng.integers(0, 40_000, 3_000),
+                                rng.integers(90_000, 91_000, 500), [200_000] * 4]))
+    x, y = rng.integers(0, 8, len(t)), rng.integers(0, 6, len(t))
+    ev = make_events(x, y, t, rng.choice([-1, 1], len(t)))
+    counts = accumulate(ev, (8, 6), dt_us=5000, mode="count", windows="paper")
+    groups = _eq5_reference(t, 5000)
+    assert len(counts) == len(groups) and counts.sum() == len(t)
+    expected = np.zeros_like(counts)
+    for k, members in enumerate(groups):
+        np.add.at(expected[k], (y[members], x[members]), 1)
+        assert t[members[-1]] - t[members[0]] <= 5000
+    np.testing.assert_array_equal(counts, expected)
+    binary = accumulate(ev, (8, 6), dt_us=5000, windows="paper")
+    np.testing.assert_array_equal(binary, (expected > 0).astype(np.uint8))
+    pol = accumulate(ev, (8, 6), dt_us=5000, mode="polarity", windows="paper")
+    np.testing.assert_array_equal(pol.sum(axis=1), counts)
+
+
+def test_windows_must_be_named():
+    ev = make_events([0], [0], [0], [1])
+    with pytest.raises(ValueError, match="windows must be one of"):
+        accumulate(ev, (1, 1), windows="clock")
+
+
+@pytest.mark.parametrize("dt", [float("nan"), float("inf"), 0, -5, 2.5, "5ms"])
+def test_bad_dt_is_a_named_error(dt):
+    ev = make_events([0], [0], [0], [1])
+    for windows in ("fixed", "paper"):
+        with pytest.raises(EventError, match="dt_us must be a positive whole number"):
+            accumulate(ev, (1, 1), dt_us=dt, windows=windows)
+
+
+def test_huge_frame_stacks_are_refused_before_allocating():
+    # 1 us windows starting a day before the events would need ~ 86e9 frames
+    ev = make_events([0], [0], [86_400_000_000], [1])
+    with pytest.raises(EventError, match="GiB"):
+        accumulate(ev, (64, 64), dt_us=1, t0_us=0)

@@ -63,3 +63,12 @@ def test_fscore_known_cases():
     assert fscore(np.zeros_like(a), np.zeros_like(a)) == 1.0
     batch = fscore(np.stack([a, shifted]), np.stack([a, a]))
     assert batch.shape == (2,) and batch[0] == 1.0 and batch[1] == pytest.approx(f1)
+
+
+@pytest.mark.parametrize("n_points", [0, -5, 2.5, True])
+def test_fscore_refuses_no_surface_samples(n_points):
+    # with zero samples every method used to score 1.0
+    gt = np.zeros((32, 32, 32))
+    gt[8:24, 8:24, 8:24] = 1
+    with pytest.raises(ValueError, match="n_points must be a positive integer"):
+        fscore(np.zeros_like(gt), gt, n_points=n_points)

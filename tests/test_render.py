@@ -193,3 +193,27 @@ def test_bad_input(mesh, kwargs, match):
     with pytest.raises(ValueError, match=match):
         render_orbit(upright_cone() if mesh is None else mesh, **kwargs)
 
+
+
+def test_video_frame_count_keeps_its_old_keyword():
+    np.testing.assert_array_equal(orbit_cameras(n_frames=7), orbit_cameras(n_video_frames=7))
+    np.testing.assert_array_equal(orbit_cameras(7), orbit_cameras(n_video_frames=7))
+    with pytest.raises(TypeError, match="not both"):
+        orbit_cameras(n_video_frames=5, n_frames=7)
+
+
+def test_render_refuses_frame_rates_beyond_microsecond_stamps():
+    with pytest.raises(ValueError, match="time stamps would coincide"):
+        render_orbit(trimesh.creation.box((0.5, 0.5, 0.5)), n_video_frames=3, fps=1e9)
+
+
+@pytest.mark.parametrize("scale, offset, problem", [
+    (1.0, (5.0, 0.0, 0.0), "from the origin"),
+    (100.0, (0.0, 0.0, 0.0), "longest side"),
+    (1e-4, (0.0, 0.0, 0.0), "longest side"),
+])
+def test_render_refuses_objects_the_orbit_cannot_frame(scale, offset, problem):
+    mesh = trimesh.creation.box((scale, scale, scale))
+    mesh.apply_translation(offset)
+    with pytest.raises(ValueError, match=problem):
+        render_orbit(mesh, n_video_frames=3, resolution=16)

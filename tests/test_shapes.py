@@ -231,3 +231,10 @@ def test_iter_shapenet_errors(tmp_path):
         list(iter_shapenet(tmp_path / "nowhere"))
     with pytest.raises(ValueError, match="mug"):
         list(iter_shapenet(tmp_path, ["mug"]))
+
+
+def test_category_facts_have_one_home():
+    from e2vlib import paper, shapes
+
+    assert shapes.CATEGORIES is paper.CATEGORIES
+    assert shapes.SHAPENET_SYNSETS is paper.SHAPENET_SYNSETS

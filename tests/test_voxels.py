@@ -294,3 +294,10 @@ def test_read_rejects_corrupt_files_naming_them(tmp_path, content, match):
 def test_read_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError):
         read_binvox(tmp_path / "nope.binvox")
+
+
+def test_a_huge_unnormalized_mesh_is_refused_before_allocating():
+    # a 1 km box would need ~1e12 surface samples at 32^3; refuse it and name the fix
+    mesh = trimesh.creation.box((1000.0, 1000.0, 1000.0))
+    with pytest.raises(ValueError, match="normalize it first"):
+        voxelize(mesh)

@@ -1,0 +1,45 @@
+"""Objects to reconstruct: procedural stand-ins for the paper's 13 ShapeNet categories,
+mesh normalization, mesh files, and a ShapeNetCore folder reader.
+
+ShapeNet cannot be downloaded here, so :func:`make_shape` builds a recognisable object of each
+of the 13 :data:`CATEGORIES` from mesh primitives with randomized proportions and parts. Every
+mesh is in the project's frame: bounding box centred at the origin, longest side 1 (metres),
+z up, the object's front towards -y, x left-right. That is ShapeNetCore v2's canonical pose
+(y up, front -z) turned by :func:`shapenet_to_zup`, so procedural and real objects line up.
+
+Module map, in the order an object is made::
+
+    primitives   boxes, rods, hulls, beams, spheres, solids of revolution, panels; Rng, Parts
+    parts        random proportions and styles of parts (_u, _pick); joining parts (_union)
+    vehicles     builders: airplane, car, watercraft
+    furniture    builders: bench, cabinet, chair, lamp, sofa, table
+    devices      builders: display, rifle, speaker, telephone
+    builders     category -> builder table; make_shape(category, seed)
+    meshes       normalize_mesh, load_mesh, MESH_SUFFIXES
+    shapenet     iter_shapenet (ShapeNetCore folders), shapenet_to_zup
+
+``CATEGORIES`` and ``SHAPENET_SYNSETS`` are :mod:`e2vlib.paper`'s, re-exported here.
+
+Introduced in notebooks/04_building_the_dataset.ipynb.
+"""
+
+from __future__ import annotations
+
+from e2vlib.paper import CATEGORIES, SHAPENET_SYNSETS
+from e2vlib.shapes.builders import make_shape
+from e2vlib.shapes.meshes import MESH_SUFFIXES, load_mesh, normalize_mesh
+from e2vlib.shapes.primitives import Parts, Rng
+from e2vlib.shapes.shapenet import iter_shapenet, shapenet_to_zup
+
+__all__ = [
+    "CATEGORIES",
+    "MESH_SUFFIXES",
+    "SHAPENET_SYNSETS",
+    "Parts",
+    "Rng",
+    "iter_shapenet",
+    "load_mesh",
+    "make_shape",
+    "normalize_mesh",
+    "shapenet_to_zup",
+]
