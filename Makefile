@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static
 
-.PHONY: venv lab test unit notebooks lint format bench data figures strip clean
+.PHONY: venv lab test unit notebooks lint format bench data figures strip student clean
 
 venv: $(STAMP)
 
@@ -47,6 +47,9 @@ figures: $(STAMP)
 
 strip: $(STAMP)
 	$(PY) tests/strip_notebooks.py notebooks/*.ipynb
+
+student: $(STAMP)
+	$(PY) tools/student.py --out student notebooks/*.ipynb
 
 clean:
 	rm -rf $(VENV) .pytest_cache

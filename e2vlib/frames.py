@@ -3,8 +3,8 @@
 All functions take an event array of :data:`e2vlib.events.EVENT_DTYPE` (sorted by ``t``,
 microseconds) and ``sensor_size = (width, height)``, validate them, and never modify the
 caller's array. Frames are indexed ``[k, y, x]``; with fixed windows (the default) frame
-``k`` covers the half-open window ``[t0 + k*dt, t0 + (k+1)*dt)``; ``windows="paper"`` groups events as the
-paper's Eq. 5 does (see :func:`accumulate`).
+``k`` covers the half-open window ``[t0 + k*dt, t0 + (k+1)*dt)``; ``windows="paper"``
+groups events as the paper's Eq. 5 does (see :func:`accumulate`).
 
 Introduced in notebooks/02_event_frames.ipynb.
 """
@@ -281,6 +281,79 @@ def time_surface(
     surface[uniq] = np.exp(-(t_us - t_last) / float(tau_us))
     shape = (2, height, width) if split_polarity else (height, width)
     return surface.reshape(shape)
+
+
+def time_surface_stack(
+    events: np.ndarray,
+    sensor_size: tuple[int, int],
+    dt_us: int = paper.DT_US,
+    n_frames: int = paper.N_EVENT_FRAMES,
+    t0_us: int = 0,
+    tau_us: float | None = None,
+) -> np.ndarray:
+    """One time surface per fixed window, taken at the window's last microsecond.
+
+    Surface ``k`` is :func:`time_surface` (both polarities together) at
+    ``t = t0 + (k + 1) dt - 1``: every pixel holds ``exp(-(t - t_last) / tau)`` of its most
+    recent event so far, or 0. ``tau_us`` defaults to ``dt_us``. Returns float32
+    ``(n_frames, H, W)``. Introduced in notebooks/09_event_representations_and_time.ipynb.
+
+    Examples
+    --------
+    >>> from e2vlib.events import make_events
+    >>> ev = make_events(x=[0, 1], y=[0, 0], t=[0, 7], p=[1, -1])
+    >>> s = time_surface_stack(ev, (2, 1), dt_us=5, n_frames=2, tau_us=5)
+    >>> np.round(s[:, 0].astype(float), 3).tolist()  # t = 4: e^(-4/5); t = 9: e^(-9/5), e^(-2/5)
+    [[0.449, 0.0], [0.165, 0.67]]
+    """
+    width, height = check_sensor_size(sensor_size)
+    validate(events, (width, height))
+    dt = _check_dt(dt_us)
+    n = _check_n_frames(n_frames)
+    tau = float(dt if tau_us is None else tau_us)
+    if not (np.isfinite(tau) and tau > 0):
+        raise ValueError(f"tau_us must be a positive number of microseconds, got {tau_us}")
+    t = events["t"]
+    edges = searchsorted_left(t, int(t0_us) + dt * np.arange(n + 1, dtype=np.int64))
+    t_last = np.full(height * width, np.iinfo(np.int64).min // 4, dtype=np.int64)
+    out = np.empty((n, height * width), dtype=np.float32)
+    for k in range(n):
+        window = events[edges[k]:edges[k + 1]]
+        flat = window["y"].astype(np.intp) * width + window["x"]
+        # sorted times: the last occurrence of a pixel is its most recent event
+        uniq, first_in_reversed = np.unique(flat[::-1], return_index=True)
+        t_last[uniq] = window["t"][::-1][first_in_reversed]
+        t_now = int(t0_us) + (k + 1) * dt - 1
+        out[k] = np.exp(-(t_now - t_last) / tau)
+    return out.reshape(n, height, width)
+
+
+def sobel_edges(frames: np.ndarray) -> np.ndarray:
+    """Sobel gradient magnitude of every frame ``(..., H, W)``, float32.
+
+    Binary frames give values in ``[0, 1]`` (divided by the largest magnitude a 0/1 image
+    can give, ``4 sqrt(2)``). Our reading of the "edge-enhanced event frames" of later work
+    on E2V (Xu et al., 2025); introduced in notebooks/09_event_representations_and_time.ipynb.
+
+    Examples
+    --------
+    >>> img = np.zeros((1, 5, 5), np.uint8); img[0, :, 2:] = 1       # a vertical edge
+    >>> np.round(sobel_edges(img)[0, 2].astype(float), 3).tolist()
+    [0.0, 0.707, 0.707, 0.0, 0.0]
+    """
+    from scipy import ndimage
+
+    x = np.asarray(frames, dtype=np.float32)
+    if x.ndim < 2:
+        raise ValueError(f"frames must be (..., H, W), got shape {x.shape}")
+    def sobel(a: np.ndarray, across: int, along: int) -> np.ndarray:
+        # derivative [-1, 0, 1] across the edge, smoothing [1, 2, 1] along it; only the two
+        # image axes (ndimage.sobel would also smooth over the frame axis)
+        d = ndimage.correlate1d(a, [-1.0, 0.0, 1.0], axis=across, mode="nearest")
+        return ndimage.correlate1d(d, [1.0, 2.0, 1.0], axis=along, mode="nearest")
+
+    gx, gy = sobel(x, -1, -2), sobel(x, -2, -1)
+    return (np.hypot(gx, gy) / np.float32(4 * np.sqrt(2))).astype(np.float32)
 
 
 def voxel_grid(events: np.ndarray, sensor_size: tuple[int, int], n_bins: int) -> np.ndarray:

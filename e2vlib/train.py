@@ -1,10 +1,13 @@
 """Training and evaluation of E2V: AdamW + binary cross entropy, as in the paper.
 
 :func:`fit` trains with progress bars, keeps a per-epoch history, writes ``last.pt`` and
-``best.pt`` (by validation IoU@0.3) atomically every epoch, resumes exactly from
-``last.pt``, and runs data-parallel when launched with ``torchrun``.
-:func:`evaluate` reports the Pix2Vox protocol: IoU at 0.2/0.3/0.4/0.5 and F-scores,
-overall (mean over samples) and per category, with mean-shape baselines.
+``best.pt`` (by validation IoU at :data:`e2vlib.paper.IOU_THRESHOLD`) atomically every
+epoch, stores the data config in both, resumes exactly from ``last.pt``, and runs
+data-parallel when launched with ``torchrun``. :func:`lr_schedule` is its learning rate
+per epoch. :func:`evaluate` reports the Pix2Vox protocol: IoU at
+:data:`e2vlib.paper.IOU_THRESHOLDS` and F-scores, overall (mean over samples) and per
+category, with mean-shape baselines. :class:`TensorSet` holds a split in memory and
+indexes like a dataset (``data[3]`` is an item, ``data[idx]`` a smaller TensorSet).
 
 Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
 """
@@ -12,42 +15,157 @@ Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
 from __future__ import annotations
 
 import json
+import math
 import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 import torch.distributed as dist
 from torch import nn
 
+from e2vlib import paper
 from e2vlib.files import atomic_path
-from e2vlib.metrics import IOU_THRESHOLDS, fscores, iou
-from e2vlib.model import E2V, read_checkpoint, save_checkpoint
+from e2vlib.metrics import fscores, iou
+from e2vlib.model import (
+    E2V,
+    CheckpointError,
+    check_frames_match,
+    checkpoint_data_config,
+    read_checkpoint,
+    save_checkpoint,
+)
+from e2vlib.paper import (
+    CATEGORIES,
+    FSCORE_DISTANCE,
+    FSCORE_DISTANCE_REPORTED,
+    GRID_SIDE,
+    IOU_THRESHOLD,
+    IOU_THRESHOLDS,
+)
 
-FSCORE_DISTANCES = {"fscore@1%": 0.01, "fscore@20%": 0.2}
+FSCORE_DISTANCES = {"fscore@1%": FSCORE_DISTANCE, "fscore@20%": FSCORE_DISTANCE_REPORTED}
 METRIC_KEYS = tuple(f"iou@{t}" for t in IOU_THRESHOLDS) + tuple(FSCORE_DISTANCES)
+
+COSINE_FLOOR = 0.05
+"""Fraction of the learning rate the cosine schedule ends at (ours)."""
+
+VAL_BATCH = 16
+"""Samples per forward pass when validating and predicting (no gradients: memory is small)."""
 
 
 @dataclass(frozen=True)
 class Recipe:
-    """Optimizer and schedule: AdamW(lr, weight_decay), ``epochs`` of ``batch_size``."""
+    """Optimizer and schedule: AdamW(lr, weight_decay), ``epochs`` of ``batch_size``.
+
+    ``cosine``: decay the learning rate from ``lr`` to ``COSINE_FLOOR * lr`` over the
+    epochs (see :func:`lr_schedule`). Values are checked: a ValueError names a bad one.
+    """
 
     lr: float
     batch_size: int
     epochs: int
     weight_decay: float = 0.01
-    cosine: bool = False  # cosine decay of lr to 5% over the epochs
+    cosine: bool = False
+
+    def __post_init__(self) -> None:
+        problems = []
+        if not _is_whole(self.batch_size) or self.batch_size < 1:
+            problems.append(f"batch_size must be a whole number >= 1, got {self.batch_size!r}:"
+                            " pass a positive batch size (batch_size=..., --batch-size)")
+        if not _is_whole(self.epochs) or self.epochs < 1:
+            problems.append(f"epochs must be a whole number >= 1, got {self.epochs!r}: train "
+                            "for at least one epoch (epochs=..., --epochs)")
+        if not _is_number(self.lr) or not self.lr > 0 or not math.isfinite(self.lr):
+            problems.append(f"lr must be a finite number > 0, got {self.lr!r}: pass a "
+                            "positive learning rate (lr=..., --lr)")
+        if not _is_number(self.weight_decay) or not 0 <= self.weight_decay < math.inf:
+            problems.append(f"weight_decay must be a finite number >= 0, got "
+                            f"{self.weight_decay!r}")
+        if problems:
+            raise ValueError("invalid training recipe: " + "; ".join(problems))
+        for name, kind in (("batch_size", int), ("epochs", int), ("lr", float),
+                           ("weight_decay", float)):
+            object.__setattr__(self, name, kind(getattr(self, name)))
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool)
+
+
+def _is_whole(value: object) -> bool:
+    return _is_number(value) and float(value) == int(value)
 
 
 RECIPES = {
-    # The paper (Sec. IV): AdamW, learning rate 1e-5, batch size 5, 100 epochs.
-    "paper": Recipe(lr=1e-5, batch_size=5, epochs=100),
+    # The paper (Sec. V): AdamW, learning rate 1e-5, batch size 5, 100 epochs.
+    "paper": Recipe(lr=paper.LEARNING_RATE, batch_size=paper.BATCH_SIZE, epochs=paper.EPOCHS),
     # Tuned for the tiny preset on data_small on a 2-core CPU (see bench/RESULTS.md).
     "tiny": Recipe(lr=2e-3, batch_size=16, epochs=30, weight_decay=1e-4, cosine=True),
 }
+
+
+def get_recipe(recipe: str | Recipe = "tiny", **overrides: Any) -> Recipe:
+    """A :class:`Recipe` by name (``"tiny"``, ``"paper"``) or as given, with fields changed.
+
+    Unknown names, unknown fields and bad values raise a ValueError that names them.
+
+    Examples
+    --------
+    >>> get_recipe("paper", epochs=2)
+    Recipe(lr=1e-05, batch_size=5, epochs=2, weight_decay=0.01, cosine=False)
+    """
+    if isinstance(recipe, str):
+        if recipe not in RECIPES:
+            raise ValueError(f"unknown recipe {recipe!r}; choose one of {sorted(RECIPES)} "
+                             "or pass a train.Recipe")
+        recipe = RECIPES[recipe]
+    elif not isinstance(recipe, Recipe):
+        raise ValueError(f"recipe must be a name {sorted(RECIPES)} or a train.Recipe, got "
+                         f"{type(recipe).__name__}")
+    valid = {f.name for f in fields(Recipe)}
+    unknown = sorted(set(overrides) - valid)
+    if unknown:
+        raise ValueError(f"unknown recipe fields {unknown}; valid fields: {sorted(valid)}")
+    return replace(recipe, **overrides)
+
+
+def lr_schedule(recipe: str | Recipe, epoch: int, epochs: int | None = None) -> float:
+    """Learning rate of epoch ``epoch`` (0-based) in a run of ``epochs`` epochs.
+
+    Constant ``recipe.lr`` unless ``recipe.cosine``; then a cosine decay from ``lr`` at
+    the first epoch to ``lr_min = COSINE_FLOOR * lr`` at the last one,
+
+    ``lr_e = lr_min + (lr - lr_min) / 2 * (1 + cos(pi * e / (E - 1)))``, e = 0 .. E - 1.
+
+    ``epochs`` (E) defaults to ``recipe.epochs``; :func:`fit` passes the length of the run
+    it was asked for, so a shorter run decays faster. Epochs outside ``0 .. E - 1`` raise
+    a ValueError.
+
+    Examples
+    --------
+    >>> tiny = RECIPES["tiny"]
+    >>> lr_schedule(tiny, 0) == tiny.lr
+    True
+    >>> round(lr_schedule(tiny, tiny.epochs - 1) / tiny.lr, 6) == COSINE_FLOOR
+    True
+    >>> lr_schedule("paper", 50) == RECIPES["paper"].lr  # the paper's: constant
+    True
+    """
+    recipe = get_recipe(recipe)
+    epochs = recipe.epochs if epochs is None else int(epochs)
+    if epochs < 1 or not 0 <= epoch < epochs:
+        raise ValueError(f"epoch must be in 0 .. {epochs - 1} (0-based) for a run of {epochs} "
+                         f"epochs, got epoch {epoch}")
+    if not recipe.cosine or epochs <= 1:
+        return recipe.lr
+    floor = COSINE_FLOOR * recipe.lr
+    return float(floor + 0.5 * (recipe.lr - floor) * (1 + np.cos(np.pi * epoch / (epochs - 1))))
 
 
 def resolve_device(device: str | torch.device = "auto") -> torch.device:
@@ -66,21 +184,99 @@ def resolve_device(device: str | torch.device = "auto") -> torch.device:
 
 @dataclass
 class TensorSet:
-    """A dataset held in memory: frames uint8 ``(N, D, H, W)``, voxels bool ``(N, 32, 32, 32)``."""
+    """In memory: frames uint8 ``(N, n_frames, H, W)``, voxels bool ``(N, 32, 32, 32)``.
+
+    ``categories`` and ``ids`` hold one string per sample; ``config`` is the dataset's
+    build settings (a dict, or None), which :func:`fit` stores in its checkpoints.
+    Indexing works like a dataset: ``data[i]`` (an int) is the item dict
+    ``{"frames": float32 (n_frames, H, W), "voxels": float32 (32, 32, 32), "category",
+    "id"}`` of :class:`~e2vlib.data.E2VDataset`; a slice, a sequence of ints or a boolean
+    mask gives a smaller TensorSet (:meth:`subset`).
+
+    Examples
+    --------
+    >>> data = TensorSet(torch.zeros(4, 2, 8, 8, dtype=torch.uint8),
+    ...                  torch.zeros(4, 32, 32, 32, dtype=torch.bool),
+    ...                  ["chair", "chair", "lamp", "lamp"], ["c0", "c1", "l0", "l1"])
+    >>> data[2]["id"], data[2]["frames"].dtype
+    ('l0', torch.float32)
+    >>> data[1:3].ids, data[[3, 0]].categories
+    (['c1', 'l0'], ['lamp', 'chair'])
+    """
 
     frames: torch.Tensor
     voxels: torch.Tensor
     categories: list[str]
     ids: list[str]
+    config: dict | None = None
+
+    def __post_init__(self) -> None:
+        sizes = {"frames": len(self.frames), "voxels": len(self.voxels),
+                 "categories": len(self.categories), "ids": len(self.ids)}
+        if len(set(sizes.values())) != 1:
+            raise ValueError(f"TensorSet parts must have one entry per sample, got {sizes}")
 
     def __len__(self) -> int:
         return len(self.ids)
+
+    def __getitem__(self, key) -> dict | TensorSet:
+        if _is_scalar_index(key):
+            i = int(key)
+            if not -len(self) <= i < len(self):
+                raise IndexError(f"index {i} is out of range for a TensorSet of {len(self)} "
+                                 "samples")
+            i %= len(self)
+            return {"frames": self.frames[i].float(), "voxels": self.voxels[i].float(),
+                    "category": self.categories[i], "id": self.ids[i]}
+        return self.subset(key)
+
+    def subset(self, indices) -> TensorSet:
+        """The samples at ``indices`` (a slice, ints, or a boolean mask), as a TensorSet.
+
+        Order follows ``indices``; tensors are copied (advanced indexing), ``config`` is
+        shared.
+        """
+        idx = self._positions(indices)
+        rows = torch.from_numpy(idx)
+        return TensorSet(self.frames[rows], self.voxels[rows],
+                         [self.categories[i] for i in idx], [self.ids[i] for i in idx],
+                         self.config)
+
+    def _positions(self, indices) -> np.ndarray:
+        n = len(self)
+        if isinstance(indices, slice):
+            return np.arange(n)[indices]
+        if isinstance(indices, torch.Tensor):
+            indices = indices.detach().cpu().numpy()
+        arr = np.asarray(indices)
+        if arr.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        if arr.dtype == bool:
+            if arr.shape != (n,):
+                raise IndexError(f"a boolean mask must have one entry per sample ({n}), got "
+                                 f"shape {arr.shape}")
+            return np.flatnonzero(arr)
+        if arr.ndim != 1 or not np.issubdtype(arr.dtype, np.integer):
+            raise IndexError("index a TensorSet with an int, a slice, a 1-D sequence of ints "
+                             f"or a boolean mask, got {type(indices).__name__} "
+                             f"of dtype {arr.dtype} and shape {arr.shape}")
+        if arr.min() < -n or arr.max() >= n:
+            raise IndexError(f"indices must be in -{n} .. {n - 1} for a TensorSet of {n} "
+                             f"samples, got {arr.min()} .. {arr.max()}")
+        return arr.astype(np.int64) % n
+
+
+def _is_scalar_index(key: object) -> bool:
+    if isinstance(key, torch.Tensor):
+        return key.ndim == 0 and not key.is_floating_point() and key.dtype != torch.bool
+    return isinstance(key, int | np.integer) and not isinstance(key, bool | np.bool_)
 
 
 def preload(dataset, progress: bool = False) -> TensorSet:
     """Load every item of an :class:`~e2vlib.data.E2VDataset` (or a :class:`TensorSet`) once.
 
-    Frames stay uint8 (4x smaller than float); batches are converted on the fly.
+    Frames stay uint8 (4x smaller than float); batches are converted on the fly. The
+    dataset's ``config`` (its build settings, when it has them) goes along.
     """
     if isinstance(dataset, TensorSet):
         return dataset
@@ -91,8 +287,18 @@ def preload(dataset, progress: bool = False) -> TensorSet:
         f, v = dataset.arrays(index)
         frames.append(torch.from_numpy(np.ascontiguousarray(f, dtype=np.uint8)))
         voxels.append(torch.from_numpy(np.ascontiguousarray(v, dtype=bool)))
+    ids = getattr(dataset, "ids", None)
+    if ids is None:
+        ids = [item[0] for item in dataset.items]
     return TensorSet(torch.stack(frames), torch.stack(voxels), list(dataset.categories),
-                     [item[0] for item in dataset.items])
+                     list(ids), _config_dict(getattr(dataset, "config", None)))
+
+
+def _config_dict(config: object) -> dict | None:
+    """A dataset's build settings as a dict (a dict, or an object with ``to_dict``)."""
+    if hasattr(config, "to_dict"):
+        config = config.to_dict()
+    return dict(config) if isinstance(config, dict) else None
 
 
 def _distributed() -> tuple[int, int]:
@@ -121,11 +327,11 @@ def _epoch_order(n: int, seed: int, epoch: int) -> torch.Tensor:
     return torch.randperm(n, generator=torch.Generator().manual_seed(seed * 100_003 + epoch))
 
 
-def _lr_at(recipe: Recipe, epoch: int, epochs: int) -> float:
-    if not recipe.cosine or epochs <= 1:
-        return recipe.lr
-    floor = 0.05 * recipe.lr
-    return float(floor + 0.5 * (recipe.lr - floor) * (1 + np.cos(np.pi * epoch / (epochs - 1))))
+def _model_device(model: nn.Module) -> torch.device | None:
+    """Device of the model's first parameter (or buffer); None for a model without any."""
+    for tensor in (*model.parameters(), *model.buffers()):
+        return tensor.device
+    return None
 
 
 def fit(
@@ -141,50 +347,94 @@ def fit(
     progress: bool = True,
     on_epoch: Callable[[list[dict]], None] | None = None,
     metadata: dict | None = None,
+    data_config: dict | None = None,
     **recipe_overrides,
 ) -> list[dict]:
     """Train ``model`` with AdamW and binary cross entropy on logits; return the history.
 
-    ``train_data``/``val_data``: :class:`~e2vlib.data.E2VDataset` or :class:`TensorSet`.
-    ``recipe``: ``"tiny"``, ``"paper"`` or a :class:`Recipe`; ``epochs`` and
-    ``recipe_overrides`` (``lr=``, ``batch_size=``, ...) change it. Every epoch writes
-    ``out_dir/last.pt`` (model, optimizer, epoch, RNG state, history) and, when the
-    validation IoU@0.3 improves, ``out_dir/best.pt``; ``out_dir/history.json`` holds
-    the history. ``resume=True`` continues exactly from ``last.pt``. Under ``torchrun``
-    the model is wrapped in DistributedDataParallel and each process trains on its share
-    of every batch's samples; only rank 0 writes files. ``on_epoch(history)`` is called
-    after each epoch (live plots). ``metadata`` (plain dict, e.g. the dataset's build
-    settings) is stored in the checkpoints. Introduced in notebooks/06_training.ipynb.
+    Parameters
+    ----------
+    model
+        The :class:`~e2vlib.model.E2V` to train (in place); its ``input_shape`` must be
+        the data's ``(n_frames, H, W)``.
+    train_data, val_data
+        :class:`~e2vlib.data.E2VDataset` or :class:`TensorSet` (non-empty).
+    out_dir
+        Every epoch writes ``out_dir/last.pt`` (model, optimizer, epoch, RNG state,
+        history) and, when the validation IoU (at :data:`e2vlib.paper.IOU_THRESHOLD`)
+        improves, ``out_dir/best.pt``; ``out_dir/history.json`` holds the history.
+    recipe, epochs, **recipe_overrides
+        ``"tiny"``, ``"paper"`` or a :class:`Recipe`; ``epochs`` and ``recipe_overrides``
+        (``lr=``, ``batch_size=``, ...) change it. ``batch_size < 1``, ``epochs < 1`` or
+        ``lr <= 0`` raise a ValueError naming the value.
+    device
+        ``"auto"``, ``"cpu"``, ``"cuda"``, ... (:func:`resolve_device`).
+    seed
+        Seeds the sample order of every epoch and torch's global generator (dropout), so
+        the same call trains the same weights on every run.
+    resume
+        Continue exactly from ``out_dir/last.pt`` (weights, optimizer, RNG state). The
+        checkpoint must hold the same model config and, when both are known, data made
+        with the same frame settings (:func:`~e2vlib.model.check_frames_match`).
+    on_epoch
+        Called with the history after each epoch (live plots).
+    metadata
+        A plain dict stored in the checkpoints under ``"metadata"``.
+    data_config
+        The build settings of the training data (``BuildConfig.to_dict()``), stored in
+        every checkpoint as ``"data_config"``; defaults to ``train_data.config`` when that
+        is a dict.
+
+    Under ``torchrun`` the model is wrapped in DistributedDataParallel and each process
+    trains on its share of every batch's samples; only rank 0 writes files.
+    Introduced in notebooks/06_training.ipynb.
     """
     from tqdm.auto import tqdm
 
-    recipe = RECIPES[recipe] if isinstance(recipe, str) else recipe
-    recipe = replace(recipe, **recipe_overrides)
     if epochs is not None:
-        recipe = replace(recipe, epochs=int(epochs))
+        recipe_overrides = {**recipe_overrides, "epochs": epochs}
+    recipe = get_recipe(recipe, **recipe_overrides)
+    if not _is_whole(seed):
+        raise ValueError(f"seed must be a whole number, got {seed!r}")
+    seed = int(seed)
     device = resolve_device(device)
     rank, world = _distributed()
     out_dir = Path(out_dir)
-    if rank == 0:
-        out_dir.mkdir(parents=True, exist_ok=True)
     train_set, val_set = preload(train_data), preload(val_data)
+    for name, data in (("train_data", train_set), ("val_data", val_set)):
+        if len(data) == 0:
+            raise ValueError(f"{name} is empty; give fit at least one sample")
     if tuple(train_set.frames.shape[1:]) != tuple(model.input_shape):
         raise ValueError(f"the data's frames are {tuple(train_set.frames.shape[1:])} but the "
                          f"model expects {model.input_shape}; build the model with "
                          f"input_shape={tuple(train_set.frames.shape[1:])}")
+    if data_config is None:
+        data_config = _config_dict(getattr(train_data, "config", None)) or train_set.config
+    elif _config_dict(data_config) is None:
+        raise ValueError(f"data_config must be a dict (e.g. BuildConfig.to_dict()) or None, "
+                         f"got {type(data_config).__name__}")
+    else:
+        data_config = _config_dict(data_config)
+    if rank == 0:
+        out_dir.mkdir(parents=True, exist_ok=True)
 
+    # Dropout (and anything else drawing from torch's global generator) starts from the
+    # seed; a resumed run restores the generator's state from last.pt instead.
+    torch.manual_seed(seed)
     model.to(device)
     optimizer = torch.optim.AdamW(model.parameters(), lr=recipe.lr,
                                   weight_decay=recipe.weight_decay)
     history: list[dict] = []
     start_epoch, best_iou = 0, -1.0
     if resume:
-        state = read_checkpoint(out_dir / "last.pt", map_location=device)
+        state = _read_resume_state(out_dir / "last.pt", model, data_config, device)
         model.load_state_dict(state["model"])
         optimizer.load_state_dict(state["optimizer"])
         start_epoch, best_iou = int(state["epoch"]) + 1, float(state["best_iou"])
         history = [dict(h) for h in state["history"]]
         torch.set_rng_state(state["torch_rng"].cpu())
+        if device.type == "cuda" and state.get("cuda_rng") is not None:
+            torch.cuda.set_rng_state(state["cuda_rng"].cpu(), device)
     net = model
     if world > 1:
         net = nn.parallel.DistributedDataParallel(
@@ -193,7 +443,7 @@ def fit(
     loss_fn = nn.BCEWithLogitsLoss()
     for epoch in range(start_epoch, recipe.epochs):
         for group in optimizer.param_groups:
-            group["lr"] = _lr_at(recipe, epoch, recipe.epochs)
+            group["lr"] = lr_schedule(recipe, epoch, recipe.epochs)
         started = time.perf_counter()
         net.train()
         order = _epoch_order(len(train_set), seed, epoch)
@@ -236,31 +486,88 @@ def fit(
                      "best_iou": best_iou, "history": history, "recipe": asdict(recipe),
                      "torch_rng": torch.get_rng_state(), "seed": seed,
                      "metadata": metadata or {}}
-            save_checkpoint(out_dir / "last.pt", model, **extra)
+            if device.type == "cuda":
+                extra["cuda_rng"] = torch.cuda.get_rng_state(device)
+            save_checkpoint(out_dir / "last.pt", model, data_config=data_config, **extra)
             if improved:
-                save_checkpoint(out_dir / "best.pt", model, **extra)
+                save_checkpoint(out_dir / "best.pt", model, data_config=data_config, **extra)
             with atomic_path(out_dir / "history.json") as tmp:
                 tmp.write_text(json.dumps(history, indent=1) + "\n")
             if progress:
                 tqdm.write(f"epoch {epoch + 1:3d}: train loss {record['train_loss']:.4f}, "
-                           f"val loss {record['val_loss']:.4f}, val IoU@0.3 "
+                           f"val loss {record['val_loss']:.4f}, val IoU@{IOU_THRESHOLD} "
                            f"{record['val_iou']:.3f} ({record['seconds']:.0f} s)")
         if on_epoch is not None and rank == 0:
             on_epoch(history)
     return history
 
 
+RESUME_KEYS = ("optimizer", "epoch", "best_iou", "history", "torch_rng")
+"""What ``last.pt`` must hold besides the model for :func:`fit` to resume from it."""
+
+
+def _read_resume_state(path: Path, model: E2V, data_config: dict | None,
+                       device: torch.device) -> dict:
+    """Read ``last.pt`` for a resume and check it belongs to this model and data."""
+    state = read_checkpoint(path, map_location=device)
+    missing = [key for key in RESUME_KEYS if key not in state]
+    if missing:
+        raise CheckpointError(
+            f"cannot resume from {path}: it has no {missing} (a slimmed or hand-made "
+            "checkpoint keeps only the weights). Resume needs the last.pt that fit writes; "
+            "start a new run without resume (--resume) instead, e.g. into another folder.")
+    ours = model.config.to_dict()
+    stored = dict(state["config"])
+    differ = sorted(k for k in ours.keys() | stored.keys() if ours.get(k) != stored.get(k))
+    if differ:
+        details = ", ".join(f"{k}: {stored.get(k)!r} in last.pt, {ours.get(k)!r} given"
+                            for k in differ)
+        raise ValueError(
+            f"cannot resume from {path}: it holds a different model ({details}). Resume "
+            "with the model stored there (load_checkpoint(last.pt); on the command line "
+            "drop --preset), or train the new model into another folder.")
+    check_frames_match(checkpoint_data_config(state), data_config, path, "the training data")
+    return state
+
+
 @torch.no_grad()
 def predict(model: E2V, frames: torch.Tensor, device: str = "auto",
-            batch_size: int = 16) -> torch.Tensor:
-    """Occupancy probabilities ``(N, 32, 32, 32)`` (CPU float32) for frames ``(N, D, H, W)``."""
+            batch_size: int = VAL_BATCH) -> torch.Tensor:
+    """Occupancy probabilities for a stack of samples' frames.
+
+    Parameters
+    ----------
+    model
+        An :class:`~e2vlib.model.E2V`. It is run in eval mode on ``device`` and left as it
+        was found: on its own device, in its own train/eval mode.
+    frames
+        ``(N, n_frames, H, W)``, any dtype (converted to float32 batch by batch).
+    device
+        Where to compute (:func:`resolve_device`; ``"auto"``: CUDA if available).
+    batch_size
+        Samples per forward pass (>= 1).
+
+    Returns
+    -------
+    torch.Tensor
+        ``(N, 32, 32, 32)`` float32 on the CPU, ``sigmoid(logits)``.
+    """
+    if not _is_whole(batch_size) or batch_size < 1:
+        raise ValueError(f"batch_size must be a whole number >= 1, got {batch_size!r}")
+    frames = torch.as_tensor(frames)
     device = resolve_device(device)
-    model.to(device).eval()
+    home, was_training = _model_device(model), model.training
     out = []
-    for i in range(0, len(frames), batch_size):
-        x = frames[i:i + batch_size].to(device, torch.float32)
-        out.append(torch.sigmoid(model(x)).float().cpu())
-    return torch.cat(out) if out else torch.zeros(0, 32, 32, 32)
+    try:
+        model.to(device).eval()
+        for i in range(0, len(frames), batch_size):
+            x = frames[i:i + batch_size].to(device, torch.float32)
+            out.append(torch.sigmoid(model(x)).float().cpu())
+    finally:
+        model.train(was_training)
+        if home is not None:
+            model.to(home)
+    return torch.cat(out) if out else torch.zeros(0, GRID_SIDE, GRID_SIDE, GRID_SIDE)
 
 
 @torch.no_grad()
@@ -268,12 +575,12 @@ def _validate(model: E2V, data: TensorSet, device: torch.device, loss_fn) -> dic
     was_training = model.training
     model.eval()
     losses, ious = [], []
-    for i in range(0, len(data), 16):
-        x = data.frames[i:i + 16].to(device, torch.float32)
-        y = data.voxels[i:i + 16].to(device, torch.float32)
+    for i in range(0, len(data), VAL_BATCH):
+        x = data.frames[i:i + VAL_BATCH].to(device, torch.float32)
+        y = data.voxels[i:i + VAL_BATCH].to(device, torch.float32)
         logits = model(x)
         losses.append(loss_fn(logits, y).item() * len(x))
-        ious.append(iou(torch.sigmoid(logits), y, threshold=0.3))
+        ious.append(iou(torch.sigmoid(logits), y, threshold=IOU_THRESHOLD))
     model.train(was_training)
     return {"loss": float(np.sum(losses) / len(data)),
             "iou": float(np.mean(np.concatenate(ious)))}
@@ -283,11 +590,12 @@ def score_predictions(probabilities: torch.Tensor, voxels: torch.Tensor,
                       fscore_points: int = 8192) -> dict[str, np.ndarray]:
     """Per-sample metrics: ``{"iou@0.2": (N,), ..., "fscore@1%": (N,), "fscore@20%": (N,)}``.
 
-    F-scores use threshold 0.3 (Pix2Vox++'s choice) and ``fscore_points`` surface samples.
+    F-scores use :data:`e2vlib.paper.IOU_THRESHOLD` (Pix2Vox++'s choice) and
+    ``fscore_points`` surface samples.
     """
     scores = {f"iou@{t}": np.atleast_1d(iou(probabilities, voxels, threshold=t))
               for t in IOU_THRESHOLDS}
-    f = fscores(probabilities, voxels, threshold=0.3,
+    f = fscores(probabilities, voxels, threshold=IOU_THRESHOLD,
                 distances=tuple(FSCORE_DISTANCES.values()), n_points=fscore_points)
     for column, key in enumerate(FSCORE_DISTANCES):
         scores[key] = np.atleast_2d(f)[:, column]
@@ -357,8 +665,6 @@ def category_mean_shapes(data: TensorSet) -> dict[str, torch.Tensor]:
 def format_table(result: dict, categories: Sequence[str] | None = None,
                  keys: Sequence[str] = METRIC_KEYS) -> str:
     """The per-category table in the layout of the paper's Tables I and II (text)."""
-    from e2vlib.shapes import CATEGORIES
-
     categories = categories or [c for c in CATEGORIES if c in result["per_category"]]
     header = f"{'category':<12} {'n':>4} " + " ".join(f"{k:>10}" for k in keys)
     lines = [header, "-" * len(header)]

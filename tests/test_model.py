@@ -1,23 +1,28 @@
-"""Tests for e2vlib.model: shapes, parameter counts, seeding, gradients, checkpoints, errors."""
+"""Tests for e2vlib.model: shapes, parameter counts, seeding, gradients, errors.
 
-import os
+Checkpoint files are tested in test_checkpoint.py.
+"""
 
 import pytest
 import torch
 
+from e2vlib import paper
 from e2vlib.model import (
     PAPER_PARAMETERS,
     PRESETS,
-    CheckpointError,
+    VOXEL_RESOLUTION,
+    BasicBlock,
+    Bottleneck,
+    Bridge,
     E2VConfig,
+    Frames2dEncoder,
+    ResNetEncoder,
+    UNetDecoder,
     activation_bytes,
     build_e2v,
     count_parameters,
     format_summary,
-    load_checkpoint,
     parameter_breakdown,
-    read_checkpoint,
-    save_checkpoint,
     summary,
 )
 
@@ -194,68 +199,6 @@ def test_gradient_reaches_every_parameter(overrides):
         assert p.grad.abs().sum() > 0, f"{name} got an all-zero gradient"
 
 
-# ----------------------------------------------------------------------------- checkpoints
-
-
-def test_checkpoint_round_trip_gives_identical_outputs(tmp_path):
-    model = small_model(bridge="interp", decoder_widths=(8, 16))
-    # Move BatchNorm running statistics away from their defaults so they must be saved.
-    model.train()
-    with torch.no_grad():
-        model(torch.rand(4, *SMALL))
-    model.eval()
-    path = tmp_path / "sub" / "model.pt"
-    opt = torch.optim.AdamW(model.parameters())
-    save_checkpoint(path, model, optimizer=opt.state_dict(), epoch=3)
-    assert sorted(os.listdir(path.parent)) == ["model.pt"]  # no temp file left behind
-    loaded = load_checkpoint(path)
-    assert loaded.config == model.config and not loaded.training
-    x = torch.rand(2, *SMALL)
-    with torch.no_grad():
-        assert torch.equal(loaded(x), model(x))
-    ckpt = read_checkpoint(path)
-    assert ckpt["epoch"] == 3 and "state" in ckpt["optimizer"]
-    assert isinstance(ckpt["config"], dict) and ckpt["config"]["decoder_widths"] == [8, 16]
-
-
-def test_save_checkpoint_replaces_existing_file_and_rejects_reserved_keys(tmp_path):
-    path = tmp_path / "m.pt"
-    save_checkpoint(path, small_model(seed=0))
-    save_checkpoint(path, small_model(seed=1))
-    reloaded = load_checkpoint(path)
-    ref = small_model(seed=1)
-    assert all(torch.equal(p, q) for p, q in zip(reloaded.parameters(), ref.parameters(),
-                                                 strict=True))
-    with pytest.raises(ValueError, match="reserved"):
-        save_checkpoint(path, ref, config={"x": 1})
-    with pytest.raises(ValueError, match="stores E2V models"):
-        save_checkpoint(path, torch.nn.Linear(2, 2))
-
-
-def test_corrupted_or_missing_checkpoint_errors_name_the_file(tmp_path):
-    missing = tmp_path / "nope.pt"
-    with pytest.raises(FileNotFoundError, match="nope.pt"):
-        load_checkpoint(missing)
-    garbage = tmp_path / "garbage.pt"
-    garbage.write_bytes(b"not a checkpoint at all" * 10)
-    with pytest.raises(CheckpointError, match="garbage.pt"):
-        load_checkpoint(garbage)
-    good = save_checkpoint(tmp_path / "good.pt", small_model())
-    truncated = tmp_path / "truncated.pt"
-    truncated.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
-    with pytest.raises(CheckpointError, match="truncated.pt"):
-        load_checkpoint(truncated)
-    other = tmp_path / "other.pt"
-    torch.save({"weights": torch.zeros(3)}, other)
-    with pytest.raises(CheckpointError, match="'config' and 'model'"):
-        load_checkpoint(other)
-    ckpt = torch.load(good, weights_only=True)
-    ckpt["model"].pop("head.bias")
-    torch.save(ckpt, tmp_path / "incomplete.pt")
-    with pytest.raises(CheckpointError, match="head.bias"):
-        load_checkpoint(tmp_path / "incomplete.pt")
-
-
 # ----------------------------------------------------------------------------- bad input
 
 
@@ -291,3 +234,54 @@ def test_config_dict_round_trip():
         assert E2VConfig.from_dict(d) == config
     with pytest.raises(ValueError, match="unknown E2V config keys"):
         E2VConfig.from_dict({**PRESETS["tiny"].to_dict(), "extra": 1})
+
+
+# ----------------------------------------------------------------------------- layout, names
+
+
+def test_public_names_come_from_the_submodules_and_paper_constants():
+    import importlib
+
+    from e2vlib.model import checkpoint, networks
+
+    # the function e2vlib.model.summary shadows the submodule's attribute on the package
+    summary_module = importlib.import_module("e2vlib.model.summary")
+
+    assert networks.E2V is build_e2v("tiny").__class__
+    for cls in (BasicBlock, Bottleneck, ResNetEncoder, Frames2dEncoder, Bridge, UNetDecoder):
+        assert getattr(networks, cls.__name__) is cls
+    assert checkpoint.load_checkpoint.__module__ == "e2vlib.model.checkpoint"
+    assert summary_module.summary is summary
+    # one definition of the paper's numbers
+    assert PAPER_PARAMETERS == paper.N_PARAMETERS == 149_155_905
+    assert VOXEL_RESOLUTION == paper.GRID_SIDE == 32
+    assert PRESETS["paper"].input_shape == (paper.N_EVENT_FRAMES, paper.INPUT_SIZE_PX,
+                                            paper.INPUT_SIZE_PX)
+    assert PRESETS["paper"].resnet_depth == paper.RESNET_DEPTH == 152
+
+
+def test_frame_axis_and_resnet_depth_are_told_apart():
+    model = small_model(depth=18)
+    assert model.input_shape == SMALL and model.n_frames == model.config.n_frames == SMALL[0]
+    assert model.config.resnet_depth == model.config.depth == 18
+    # resnet_depth is accepted wherever depth is
+    assert build_e2v("tiny", input_shape=SMALL, resnet_depth=34).config.depth == 34
+    stored = PRESETS["tiny"].to_dict()
+    stored["resnet_depth"] = stored.pop("depth") + 8
+    config = E2VConfig.from_dict(stored)
+    assert config.depth == 18 and config.to_dict()["depth"] == 18
+    with pytest.raises(ValueError, match="give only one"):
+        build_e2v("tiny", depth=10, resnet_depth=18)
+    with pytest.raises(ValueError, match="ResNet depth, not the frame axis"):
+        build_e2v("tiny", depth=100)
+    with pytest.raises(ValueError, match=r"\(batch, n_frames, height, width\)"):
+        model(torch.rand(2, 8, 32, 32))
+
+
+def test_frames2d_encoder_pools_the_frame_axis_into_time_bins():
+    model = small_model(encoder="frames2d")
+    # (16, 32, 32): 2D stem stride 2 -> 16x16, pool -> 8x8, three halvings -> 1x1; the 16
+    # frames are max-pooled into 4 time bins
+    assert model.encoder_shape == (64, 4, 1, 1)
+    short = small_model(encoder="frames2d", input_shape=(3, 32, 32))
+    assert short.encoder_shape == (64, 3, 1, 1)  # fewer frames than bins: one bin each

@@ -1,17 +1,24 @@
 import json
+import math
 import os
 
 import numpy as np
 import pytest
 import torch
 
-from e2vlib.model import build_e2v, load_checkpoint
+from e2vlib import paper
+from e2vlib.model import CheckpointError, build_e2v, load_checkpoint, read_checkpoint
+from e2vlib.model.checkpoint import slim_checkpoint
 from e2vlib.train import (
+    COSINE_FLOOR,
     RECIPES,
+    Recipe,
     TensorSet,
     evaluate,
     fit,
     format_table,
+    lr_schedule,
+    predict,
     resolve_device,
     score_predictions,
 )
@@ -19,9 +26,9 @@ from e2vlib.train import (
 SHAPE = (8, 16, 16)
 
 
-def small_model(seed=0):
-    return build_e2v("tiny", seed=seed, input_shape=SHAPE, decoder_widths=(8, 16),
-                     bottleneck_features=32)
+def small_model(seed=0, **overrides):
+    kw = {"input_shape": SHAPE, "decoder_widths": (8, 16), "bottleneck_features": 32}
+    return build_e2v("tiny", seed=seed, **(kw | overrides))
 
 
 def toy_set(n=24, seed=0) -> TensorSet:
@@ -133,3 +140,148 @@ def test_data_parallel_replicas_stay_equal(tmp_path):
         changed |= not torch.equal(a[name], start[name])
     assert changed, "training did not change the weights"
     assert (tmp_path / "last.pt").exists()  # written by rank 0 only, no clash
+
+
+# ----------------------------------------------------------------------------- issue 10 / 14
+
+
+def test_tensorset_indexes_like_a_dataset():
+    data = toy_set(6)
+    data.config = {"frame_size": SHAPE[1]}
+    item = data[2]
+    assert set(item) == {"frames", "voxels", "category", "id"} and item["id"] == "s2"
+    assert item["frames"].dtype == item["voxels"].dtype == torch.float32
+    assert item["frames"].shape == SHAPE and item["voxels"].shape == (32, 32, 32)
+    assert torch.equal(item["frames"], data.frames[2].float())
+    assert data[-1]["id"] == "s5" and data[np.int64(1)]["id"] == data[torch.tensor(1)]["id"]
+    with pytest.raises(IndexError, match="out of range"):
+        data[6]
+    part = data[1:4]
+    assert isinstance(part, TensorSet) and part.ids == ["s1", "s2", "s3"]
+    assert torch.equal(part.frames, data.frames[1:4]) and part.config is data.config
+    picked = data[np.array([5, 0, -2])]
+    assert picked.ids == ["s5", "s0", "s4"] and torch.equal(picked.voxels[0], data.voxels[5])
+    assert data.subset([3]).categories == [data.categories[3]]
+    assert data[torch.tensor([0, 2])].ids == ["s0", "s2"]
+    mask = np.array([c == "table" for c in data.categories])
+    assert data[mask].categories == ["table"] * int(mask.sum())
+    assert len(data[[]]) == 0
+    with pytest.raises(IndexError, match="-6 .. 5"):
+        data[[0, 7]]
+    with pytest.raises(IndexError, match="boolean mask"):
+        data[np.array([True, False])]
+    with pytest.raises(ValueError, match="one entry per sample"):
+        TensorSet(data.frames, data.voxels[:3], data.categories, data.ids)
+
+
+def test_lr_schedule_is_public_and_is_what_fit_uses(tmp_path):
+    tiny = RECIPES["tiny"]
+    assert lr_schedule(tiny, 0) == tiny.lr
+    assert lr_schedule(tiny, tiny.epochs - 1) == pytest.approx(COSINE_FLOOR * tiny.lr)
+    # the middle of the cosine: halfway between lr and its floor
+    five = Recipe(lr=1.0, batch_size=1, epochs=5, cosine=True)
+    assert lr_schedule(five, 2) == pytest.approx((1 + COSINE_FLOOR) / 2)
+    assert lr_schedule(five, 2, epochs=3) == pytest.approx(COSINE_FLOOR)  # shorter run
+    assert lr_schedule("paper", 99) == paper.LEARNING_RATE  # the paper's lr is constant
+    with pytest.raises(ValueError, match="0 .. 4"):
+        lr_schedule(five, 5)
+    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path, recipe=five, epochs=3,
+                  lr=1e-3, batch_size=4, progress=False)
+    three = Recipe(lr=1e-3, batch_size=4, epochs=3, cosine=True)
+    assert [h["lr"] for h in history] == [lr_schedule(three, e) for e in range(3)]
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"batch_size": 0}, "batch_size must be a whole number >= 1, got 0"),
+    ({"batch_size": -2}, "batch_size .* got -2: pass a positive batch size"),
+    ({"epochs": 0}, "epochs must be a whole number >= 1, got 0"),
+    ({"lr": 0.0}, "lr must be a finite number > 0, got 0.0"),
+    ({"lr": -1e-3}, "got -0.001"),
+    ({"lr": math.nan}, "got nan"),
+    ({"recipe": "bogus"}, "unknown recipe 'bogus'; choose one of \\['paper', 'tiny'\\]"),
+    ({"lrr": 1e-3}, "unknown recipe fields \\['lrr'\\]"),
+])
+def test_fit_rejects_bad_settings_before_writing_anything(tmp_path, kwargs, message):
+    out = tmp_path / "run"
+    with pytest.raises(ValueError, match=message):
+        fit(small_model(), toy_set(4), toy_set(2), out, progress=False, **kwargs)
+    assert not out.exists()
+
+
+def test_fit_seed_makes_a_model_with_dropout_train_identically(tmp_path):
+    runs = []
+    for run, noise in enumerate((123, 456)):
+        torch.manual_seed(noise)  # whatever the global generator held before
+        model = small_model(dropout=0.5)
+        fit(model, toy_set(8), toy_set(4, 1), tmp_path / str(run), epochs=2, lr=1e-2,
+            batch_size=4, seed=7, progress=False)
+        runs.append(model.state_dict())
+    for name, weights in runs[0].items():
+        assert torch.equal(weights, runs[1][name]), name
+    # dropout does draw from the global generator: two training-mode passes differ
+    model = small_model(dropout=0.5).train()
+    x = toy_set(2).frames.float()
+    assert not torch.equal(model(x), model(x))
+
+
+def test_predict_leaves_the_model_as_it_found_it():
+    model = small_model()
+    frames = toy_set(3).frames
+    for mode in (True, False):
+        model.train(mode)
+        before = [p.clone() for p in model.parameters()]
+        probs = predict(model, frames, device="cpu", batch_size=2)
+        assert model.training is mode
+        assert all(torch.equal(a, b) for a, b in zip(before, model.parameters(), strict=True))
+    assert probs.shape == (3, 32, 32, 32) and probs.device.type == "cpu"
+    with torch.no_grad():  # the same as the eval-mode forward pass
+        assert torch.allclose(probs, torch.sigmoid(model.eval()(frames.float())))
+    model.train()
+    with pytest.raises(ValueError, match="expects input shape"):
+        predict(model, frames[:, :4], device="cpu")  # fails inside: mode still restored
+    assert model.training
+    with pytest.raises(ValueError, match="batch_size"):
+        predict(model, frames, device="cpu", batch_size=0)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_predict_moves_the_model_back_to_its_device():
+    model = small_model().train()
+    cpu_probs = predict(model, toy_set(2).frames, device="cpu")
+    gpu_probs = predict(model, toy_set(2).frames, device="cuda")
+    assert next(model.parameters()).device.type == "cpu" and model.training
+    assert torch.allclose(cpu_probs, gpu_probs, atol=1e-4)
+    model.cuda().eval()
+    predict(model, toy_set(2).frames, device="cpu")
+    assert next(model.parameters()).device.type == "cuda" and not model.training
+
+
+def test_fit_stores_the_data_config_and_resume_checks_it(tmp_path):
+    data_config = {"frame_size": SHAPE[1], "n_frames": SHAPE[0], "dt_us": paper.DT_US}
+    kwargs = dict(lr=1e-2, batch_size=4, progress=False)
+    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=1,
+        data_config=data_config, **kwargs)
+    for name in ("last.pt", "best.pt"):
+        assert read_checkpoint(tmp_path / "a" / name)["data_config"] == data_config
+    # without data_config, the training set's own config is used
+    train_set = toy_set(8)
+    train_set.config = {**data_config, "windows": "paper"}
+    fit(small_model(), train_set, toy_set(4, 1), tmp_path / "b", epochs=1, **kwargs)
+    assert read_checkpoint(tmp_path / "b" / "last.pt")["data_config"] == train_set.config
+    # resuming on data whose frames were made differently is refused, naming both values
+    with pytest.raises(CheckpointError, match="windows is 'paper' in .*last.pt but 'fixed'"):
+        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2, resume=True,
+            data_config=data_config, **kwargs)
+
+
+def test_resume_refuses_another_model_and_a_slimmed_checkpoint(tmp_path):
+    kwargs = dict(lr=1e-2, batch_size=4, progress=False)
+    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path, epochs=1, **kwargs)
+    other = small_model(bottleneck_features=16)
+    with pytest.raises(ValueError, match="different model .*bottleneck_features: 32 in "
+                                         "last.pt, 16 given"):
+        fit(other, toy_set(8), toy_set(4, 1), tmp_path, epochs=2, resume=True, **kwargs)
+    slim_checkpoint(tmp_path / "last.pt", tmp_path / "slim" / "last.pt")
+    with pytest.raises(CheckpointError, match="no \\['optimizer', 'torch_rng'\\]"):
+        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "slim", epochs=2,
+            resume=True, **kwargs)

@@ -1,24 +1,29 @@
-"""The E2V network: a 3D ResNet encoder, a bridge to a 32^3 hidden volume, a UNet decoder.
+"""The E2V network: configuration, building blocks, encoders, bridge, decoder, presets.
 
-E2V (Chen et al., ICVR 2023) treats a stack of ``D`` binary event frames as a 3D volume
-``(D, H, W)`` and maps it to 32^3 occupancy logits in three parts:
+E2V (Chen et al., ICVR 2023) treats a stack of ``n_frames`` binary event frames as one 3D
+volume ``(n_frames, H, W)`` (the first axis is the frame axis, i.e. time) and maps it to
+32^3 occupancy logits in three parts:
 
 1. **encoder** -- a ResNet whose 2D convolutions are all replaced by 3D ones (the paper
    uses ResNet-152), so a 3x3x3 kernel sees 3 consecutive frames of a 3x3 patch;
-2. **bridge** -- brings the encoder's ``(c, d, h, w)`` output to a hidden volume
-   ``(C, 32, 32, 32)``;
+2. **bridge** -- brings the encoder's ``(c, t, h, w)`` output (``t``: the frame axis after
+   striding) to a hidden volume ``(C, 32, 32, 32)``;
 3. **decoder** -- a UNet-like 3D network inspired by the Pix2Vox++ refiner (3D conv down
    blocks, a bottleneck, transposed-conv up blocks with skip connections) ending in one
    logit per voxel.
 
-Shapes: input ``(batch, D, H, W)`` float, output ``(batch, 32, 32, 32)`` logits indexed
-``[b, x, y, z]``; probabilities are ``sigmoid(logits)``.
+Shapes: input ``(batch, n_frames, H, W)`` float, output ``(batch, 32, 32, 32)`` logits
+indexed ``[b, x, y, z]``; probabilities are ``sigmoid(logits)``. ``E2V.input_shape`` is
+the ``(D, H, W)`` of the design note with ``D = n_frames``. Two different "depths" appear
+here and must not be confused: the frame axis (time, ``n_frames`` long) and the ResNet
+depth (number of layers, :attr:`E2VConfig.depth`, alias :attr:`E2VConfig.resnet_depth`).
 
 The paper gives the encoder, the hidden-volume idea, the decoder style and the total of
-149,155,905 parameters, but not the decoder's widths; every choice made here is written
-next to the code that makes it. Presets: ``"paper"`` (149.8 M parameters, input
-100 x 256 x 256), ``"tiny"`` (2.8 M, input 100 x 64 x 64, trains on a laptop CPU) and
-``"tiny2d"`` (tiny with a per-frame 2D encoder, the paper's suggested future work).
+:data:`e2vlib.paper.N_PARAMETERS` parameters, but not the decoder's widths; every choice
+made here is written next to the code that makes it. Presets: ``"paper"`` (149.8 M
+parameters, input 100 x 256 x 256), ``"tiny"`` (2.8 M, input 100 x 64 x 64, trains on a
+laptop CPU) and ``"tiny2d"`` (tiny with a per-frame 2D encoder, the paper's suggested
+future work).
 
 Introduced in notebooks/05_the_e2v_model.ipynb.
 """
@@ -26,20 +31,23 @@ Introduced in notebooks/05_the_e2v_model.ipynb.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import asdict, dataclass, fields, replace
-from pathlib import Path
 from typing import Any
 
 import torch
 import torch.nn.functional as F
 from torch import nn
 
-VOXEL_RESOLUTION = 32
+from e2vlib import paper
+
+GRID_SIDE = paper.GRID_SIDE
 """Side of the output occupancy grid (the paper's 32^3)."""
 
-PAPER_PARAMETERS = 149_155_905
-"""Total parameter count the paper reports for E2V."""
+VOXEL_RESOLUTION = GRID_SIDE
+"""Older name of :data:`GRID_SIDE`, kept for callers that import it."""
+
+PAPER_PARAMETERS = paper.N_PARAMETERS
+"""Total parameter count the paper reports for E2V (:data:`e2vlib.paper.N_PARAMETERS`)."""
 
 RESNET_LAYERS: dict[int, tuple[str, tuple[int, int, int, int]]] = {
     10: ("basic", (1, 1, 1, 1)),
@@ -57,13 +65,6 @@ BOTTLENECKS = ("fc", "conv", "none")
 NORMS = ("batch", "group")
 
 
-class CheckpointError(ValueError):
-    """A checkpoint file cannot be read or does not describe an E2V model.
-
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-
-
 # --------------------------------------------------------------------------- config
 
 
@@ -71,11 +72,13 @@ class CheckpointError(ValueError):
 class E2VConfig:
     """Everything needed to rebuild an :class:`E2V` (stored in checkpoints as a plain dict).
 
-    - ``input_shape``: ``(D, H, W)`` = (frames, height, width) of one sample.
+    - ``input_shape``: ``(n_frames, height, width)`` of one sample; the first axis is the
+      frame axis (time), the ``D`` of the design note's ``(D, H, W)``.
     - ``encoder``: ``"resnet3d"`` (the paper) or ``"frames2d"`` (a per-frame 2D CNN whose
       features are pooled over time, the paper's suggested future work).
-    - ``depth``: ResNet depth, one of 10, 18, 34, 50, 101, 152; ``block``: ``"basic"``,
-      ``"bottleneck"`` or ``"auto"`` (the standard block for that depth).
+    - ``depth``: the **ResNet depth** (number of layers: 10, 18, 34, 50, 101 or 152), not
+      the frame axis; also readable as :attr:`resnet_depth`. ``block``: ``"basic"``,
+      ``"bottleneck"`` or ``"auto"`` (the standard block for that ResNet depth).
     - ``base_width``: channels of the stem and first stage (64 in ResNet); stage ``i`` has
       ``base_width * 2**i`` (times 4 at the output of a bottleneck block).
     - ``stem_kernel``/``stem_stride``/``stem_pool``: the first convolution (7/2 in ResNet)
@@ -91,10 +94,22 @@ class E2VConfig:
     - ``norm``: ``"batch"`` (BatchNorm) or ``"group"`` (GroupNorm, independent of batch size).
     - ``dropout``: dropout probability before the fully connected layers.
 
+    The field is called ``depth`` because checkpoints store it under that key; old
+    checkpoints keep loading. :meth:`from_dict` also accepts ``resnet_depth``.
+
+    Examples
+    --------
+    >>> config = E2VConfig(input_shape=(20, 32, 32), depth=18)
+    >>> config.resnet_depth, config.n_frames, config.block_type
+    (18, 20, 'basic')
+    >>> E2VConfig.from_dict(config.to_dict()) == config
+    True
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 
-    input_shape: tuple[int, int, int] = (100, 64, 64)
+    input_shape: tuple[int, int, int] = (
+        paper.N_EVENT_FRAMES, paper.FRAME_SIZE_PX, paper.FRAME_SIZE_PX)
     encoder: str = "resnet3d"
     depth: int = 10
     block: str = "auto"
@@ -118,11 +133,13 @@ class E2VConfig:
         problems = []
         if len(self.input_shape) != 3 or min(self.input_shape) < 1:
             problems.append(
-                f"input_shape must be 3 positive ints (D, H, W), got {self.input_shape}"
+                "input_shape must be 3 positive ints (n_frames, height, width), "
+                f"got {self.input_shape}"
             )
         _check_choice(problems, "encoder", self.encoder, ENCODERS)
         if self.depth not in RESNET_LAYERS:
-            problems.append(f"depth must be one of {sorted(RESNET_LAYERS)}, got {self.depth}")
+            problems.append(f"depth must be one of {sorted(RESNET_LAYERS)} (the ResNet depth, "
+                            f"not the frame axis), got {self.depth}")
         _check_choice(problems, "block", self.block, ("auto", "basic", "bottleneck"))
         _check_choice(problems, "bridge", self.bridge, BRIDGES)
         _check_choice(problems, "bottleneck", self.bottleneck, BOTTLENECKS)
@@ -135,17 +152,27 @@ class E2VConfig:
             problems.append(f"stem_kernel must be odd (centred padding), got {self.stem_kernel}")
         if not self.decoder_widths or min(self.decoder_widths) < 1:
             problems.append(f"decoder_widths must be positive ints, got {self.decoder_widths}")
-        elif VOXEL_RESOLUTION % 2 ** len(self.decoder_widths):
+        elif GRID_SIDE % 2 ** len(self.decoder_widths):
             problems.append(
-                f"{len(self.decoder_widths)} decoder levels cannot halve a {VOXEL_RESOLUTION}^3 "
+                f"{len(self.decoder_widths)} decoder levels cannot halve a {GRID_SIDE}^3 "
                 "grid evenly; use at most 5 decoder_widths"
             )
-        if VOXEL_RESOLUTION % self.seed_size:
-            problems.append(f"seed_size must divide {VOXEL_RESOLUTION}, got {self.seed_size}")
+        if GRID_SIDE % self.seed_size:
+            problems.append(f"seed_size must divide {GRID_SIDE}, got {self.seed_size}")
         if not 0.0 <= self.dropout < 1.0:
             problems.append(f"dropout must be in [0, 1), got {self.dropout}")
         if problems:
             raise ValueError("invalid E2V config: " + "; ".join(problems))
+
+    @property
+    def resnet_depth(self) -> int:
+        """The ResNet depth (number of layers), the same as :attr:`depth`."""
+        return self.depth
+
+    @property
+    def n_frames(self) -> int:
+        """Length of the frame axis (time) of the input, ``input_shape[0]``."""
+        return self.input_shape[0]
 
     @property
     def block_type(self) -> str:
@@ -161,7 +188,11 @@ class E2VConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> E2VConfig:
-        """Rebuild a config from :meth:`to_dict`'s output; unknown keys raise ValueError."""
+        """Rebuild a config from :meth:`to_dict`'s output; unknown keys raise ValueError.
+
+        ``resnet_depth`` is accepted as another name for ``depth``.
+        """
+        d = _resnet_depth_alias(dict(d), "E2V config")
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:
@@ -174,6 +205,16 @@ def _check_choice(problems: list[str], name: str, value: object, choices: tuple)
         problems.append(f"{name} must be one of {list(choices)}, got {value!r}")
 
 
+def _resnet_depth_alias(d: dict[str, Any], what: str) -> dict[str, Any]:
+    """Rename a ``resnet_depth`` key to the stored field name ``depth``."""
+    if "resnet_depth" in d:
+        if "depth" in d and d["depth"] != d["resnet_depth"]:
+            raise ValueError(f"{what}: depth={d['depth']} and resnet_depth={d['resnet_depth']} "
+                             "name the same field; give only one")
+        d["depth"] = d.pop("resnet_depth")
+    return d
+
+
 PRESETS: dict[str, E2VConfig] = {
     # The paper: 3D ResNet-152 on 100 frames of 256 x 256.
     #  - bridge "reshape": the paper says the encoder yields a C x 32^3 hidden volume with C
@@ -184,8 +225,8 @@ PRESETS: dict[str, E2VConfig] = {
     #    which would give 151.9 M parameters (+1.8 %); the paper does not publish its
     #    decoder, so we picked 1920 (= 15 x 128), which lands at +0.4 %.
     "paper": E2VConfig(
-        input_shape=(100, 256, 256),
-        depth=152,
+        input_shape=(paper.N_EVENT_FRAMES, paper.INPUT_SIZE_PX, paper.INPUT_SIZE_PX),
+        depth=paper.RESNET_DEPTH,
         base_width=64,
         stem_kernel=7,
         stem_stride=2,
@@ -203,7 +244,7 @@ PRESETS: dict[str, E2VConfig] = {
     # global context, so the bridge is fully connected (whole encoder output -> 4 x 4^3
     # seed); 4 hidden channels keep the work on the 32^3 grid small.
     "tiny": E2VConfig(
-        input_shape=(100, 64, 64),
+        input_shape=(paper.N_EVENT_FRAMES, paper.FRAME_SIZE_PX, paper.FRAME_SIZE_PX),
         depth=10,
         base_width=8,
         stem_kernel=3,
@@ -301,8 +342,9 @@ def _shortcut(c_in: int, c_out: int, stride: int, norm: str, dim: int) -> nn.Mod
 class ResNetEncoder(nn.Module):
     """A ResNet trunk (no classifier) in 3D (the paper: every 2D op made 3D) or in 2D.
 
-    3D: input ``(B, 1, D, H, W)``, output ``(B, out_channels, d, h, w)`` with each of
-    d, h, w shrunk about 32x (16x without the stem pool). 2D: ``(N, 1, H, W)`` ->
+    3D: input ``(B, 1, n_frames, H, W)``, output ``(B, out_channels, t, h, w)`` with each
+    of t (the frame axis), h, w shrunk about 32x (16x without the stem pool). 2D:
+    ``(N, 1, H, W)`` ->
     ``(N, out_channels, h, w)``. Stages: ``stem``, ``layer1`` .. ``layer4``.
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
@@ -349,7 +391,7 @@ class ResNetEncoder(nn.Module):
 
 
 class Frames2dEncoder(nn.Module):
-    """Per-frame 2D ResNet shared over time, then max over time: ``(B, 1, D, H, W)`` in.
+    """Per-frame 2D ResNet shared over time, then max over time: ``(B, 1, n_frames, H, W)`` in.
 
     The alternative the paper names as future work: each frame is encoded on its own by a
     2D ResNet (same depth/width options as the 3D one), and time is mixed only by max
@@ -366,22 +408,23 @@ class Frames2dEncoder(nn.Module):
         self.out_channels = self.net.out_channels
 
     def output_shape(self, input_shape: tuple[int, int, int]) -> tuple[int, int, int, int]:
-        """``(channels, time_bins, h, w)`` of the output for one ``(D, H, W)`` input."""
+        """``(channels, time_bins, h, w)`` of the output for one ``(n_frames, H, W)`` input."""
         c, h, w = self.net.output_shape(input_shape[1:])
         return (c, min(self.time_bins, input_shape[0]), h, w)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        b, _, d, h, w = x.shape
-        y = self.net(x.reshape(b * d, 1, h, w))  # (B*D, c, h', w'): frames as a batch
-        y = y.reshape(b, d, *y.shape[1:]).transpose(1, 2)  # (B, c, D, h', w')
-        return F.adaptive_max_pool3d(y, (min(self.time_bins, d), *y.shape[-2:]))
+        b, _, n_frames, h, w = x.shape
+        # (B * n_frames, c, h', w'): every frame is one item of the 2D network's batch
+        y = self.net(x.reshape(b * n_frames, 1, h, w))
+        y = y.reshape(b, n_frames, *y.shape[1:]).transpose(1, 2)  # (B, c, n_frames, h', w')
+        return F.adaptive_max_pool3d(y, (min(self.time_bins, n_frames), *y.shape[-2:]))
 
 
 # --------------------------------------------------------------------------- bridge
 
 
 class Bridge(nn.Module):
-    """Encoder output ``(B, c, d, h, w)`` -> hidden volume ``(B, C, 32, 32, 32)``.
+    """Encoder output ``(B, c, t, h, w)`` -> hidden volume ``(B, C, 32, 32, 32)``.
 
     See :class:`E2VConfig` for the three kinds. Introduced in notebooks/05_the_e2v_model.ipynb.
     """
@@ -390,14 +433,15 @@ class Bridge(nn.Module):
         super().__init__()
         self.kind = config.bridge
         n_in = math.prod(encoder_shape)
-        r3 = VOXEL_RESOLUTION**3
+        r3 = GRID_SIDE**3
         if self.kind == "reshape":
             if n_in % r3:
                 raise ValueError(
                     f"bridge='reshape' needs the encoder output {encoder_shape} "
-                    f"({n_in} values) to be a multiple of {VOXEL_RESOLUTION}^3 = {r3}; "
+                    f"({n_in} values) to be a multiple of {GRID_SIDE}^3 = {r3}; "
                     f"input_shape {config.input_shape} does not give that. Use an input whose "
-                    "encoder output fits (as the paper preset's (100, 256, 256) does), "
+                    f"encoder output fits (as the paper preset's {PRESETS['paper'].input_shape} "
+                    "does), "
                     "or bridge='interp' / bridge='fc'."
                 )
             self.channels = n_in // r3
@@ -419,7 +463,7 @@ class Bridge(nn.Module):
             )
 
     def forward(self, z: torch.Tensor) -> torch.Tensor:
-        b, size = z.shape[0], (VOXEL_RESOLUTION,) * 3
+        b, size = z.shape[0], (GRID_SIDE,) * 3
         if self.kind == "reshape":
             return z.reshape(b, self.channels, *size)
         if self.kind == "interp":
@@ -460,7 +504,7 @@ class UNetDecoder(nn.Module):
             )
             for i in range(len(widths) - 1)
         )
-        side = VOXEL_RESOLUTION // 2 ** (len(widths) - 1)
+        side = GRID_SIDE // 2 ** (len(widths) - 1)
         self.bottom_shape = (widths[-1], side, side, side)
         n_bottom = math.prod(self.bottom_shape)
         if config.bottleneck == "fc":
@@ -504,12 +548,23 @@ class UNetDecoder(nn.Module):
 
 
 class E2V(nn.Module):
-    """E2V: event frames ``(B, D, H, W)`` float -> occupancy logits ``(B, 32, 32, 32)``.
+    """E2V: event frames ``(B, n_frames, H, W)`` float -> occupancy logits ``(B, 32, 32, 32)``.
 
     Build with :func:`build_e2v` or ``E2V(E2VConfig(...))``. ``input_shape`` is the
-    ``(D, H, W)`` every input must have; ``config`` the :class:`E2VConfig` it was built
-    from. Sub-modules: ``encoder``, ``bridge``, ``decoder``, ``head`` (1x1x1 conv to one
-    logit per voxel). Introduced in notebooks/05_the_e2v_model.ipynb.
+    ``(D, H, W)`` = ``(n_frames, height, width)`` every input must have (``D`` is the frame
+    axis, time; the ResNet depth is ``config.resnet_depth``); ``config`` the
+    :class:`E2VConfig` it was built from. Sub-modules: ``encoder``, ``bridge``,
+    ``decoder``, ``head`` (1x1x1 conv to one logit per voxel).
+
+    Examples
+    --------
+    >>> model = E2V(E2VConfig(input_shape=(16, 32, 32)))
+    >>> model.input_shape, model.n_frames
+    ((16, 32, 32), 16)
+    >>> model.eval()(torch.zeros(1, 16, 32, 32)).shape
+    torch.Size([1, 32, 32, 32])
+
+    Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 
     def __init__(self, config: E2VConfig) -> None:
@@ -528,6 +583,11 @@ class E2V(nn.Module):
         self.decoder = UNetDecoder(self.hidden_channels, config)
         self.head = nn.Conv3d(self.hidden_channels, 1, 1)
         self._init_weights()
+
+    @property
+    def n_frames(self) -> int:
+        """Length of the frame axis (time) of the input, ``input_shape[0]``."""
+        return self.input_shape[0]
 
     def _init_weights(self) -> None:
         for m in self.modules():
@@ -550,8 +610,9 @@ class E2V(nn.Module):
                              "add the batch axis with x.unsqueeze(0)")
         if x.ndim != 4 or got[1:] != self.input_shape:
             raise ValueError(
-                f"E2V expects input shape {want} = (batch, frames, height, width), got {got}. "
-                f"Give it frames of input_shape={self.input_shape}, the number of frames and "
+                f"E2V expects input shape {want} = (batch, n_frames, height, width), got "
+                f"{got}. Give it frames of input_shape={self.input_shape}, the number of "
+                "frames (the frame axis, time) and "
                 "resolution it was built for (e2vlib.frames.downsample lowers the resolution), "
                 "or build a model for your shape with build_e2v(preset, input_shape=...)"
             )
@@ -559,7 +620,7 @@ class E2V(nn.Module):
             raise ValueError(f"E2V expects a float tensor, got dtype {x.dtype}; use x.float()")
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """``(B, D, H, W)`` float -> logits ``(B, 32, 32, 32)`` indexed ``[b, x, y, z]``."""
+        """``(B, n_frames, H, W)`` float -> logits ``(B, 32, 32, 32)`` indexed ``[b, x, y, z]``."""
         self.check_input(x)
         z = self.encoder(x.unsqueeze(1))
         h = self.bridge(z)
@@ -569,16 +630,40 @@ class E2V(nn.Module):
 def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -> E2V:
     """Build an :class:`E2V` from a named preset, optionally changing config fields.
 
-    ``preset``: ``"tiny"`` (input 100 x 64 x 64, 2.8 M parameters), ``"tiny2d"`` (the same
-    with a per-frame 2D encoder) or ``"paper"`` (100 x 256 x 256, 149.8 M; build it under
-    ``with torch.device("meta"):`` to inspect it without allocating 600 MB).
-    ``overrides``: any :class:`E2VConfig` field, e.g. ``input_shape=(20, 64, 64)``.
-    ``seed``: if given, weights are initialised from ``torch.manual_seed(seed)`` without
-    touching the global random state.
+    Parameters
+    ----------
+    preset
+        ``"tiny"`` (input 100 x 64 x 64, 2.8 M parameters), ``"tiny2d"`` (the same with a
+        per-frame 2D encoder) or ``"paper"`` (100 x 256 x 256, 149.8 M; build it under
+        ``with torch.device("meta"):`` to inspect it without allocating 600 MB).
+    seed
+        If given, weights are initialised from ``torch.manual_seed(seed)`` without
+        touching the global random state.
+    **overrides
+        Any :class:`E2VConfig` field, e.g. ``input_shape=(20, 64, 64)`` (``(n_frames,
+        height, width)``); ``resnet_depth=`` is accepted for ``depth=``.
+
+    Returns
+    -------
+    E2V
+        A new model in training mode, on the current default device.
+
+    Examples
+    --------
+    >>> model = build_e2v("tiny", seed=0)
+    >>> model.input_shape
+    (100, 64, 64)
+    >>> count_parameters(model)
+    2827829
+    >>> small = build_e2v("tiny", input_shape=(20, 32, 32), resnet_depth=18)
+    >>> small.config.resnet_depth, small(torch.zeros(2, 20, 32, 32)).shape
+    (18, torch.Size([2, 32, 32, 32]))
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; choose one of {sorted(PRESETS)}")
+    overrides = _resnet_depth_alias(dict(overrides), "build_e2v")
     valid = {f.name for f in fields(E2VConfig)}
     unknown = sorted(set(overrides) - valid)
     if unknown:
@@ -591,239 +676,21 @@ def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -
         return E2V(config)
 
 
-# --------------------------------------------------------------------------- inspection
-
-
 def count_parameters(model: nn.Module, trainable_only: bool = False) -> int:
-    """Number of (trainable) parameters; works on the meta device.
+    """Number of parameters of ``model`` (only those with ``requires_grad`` if asked).
+
+    Works on the meta device (shapes only), so the paper preset can be counted without
+    allocating its weights.
+
+    Examples
+    --------
+    >>> layer = torch.nn.Linear(3, 2)  # 3 x 2 weights + 2 biases
+    >>> count_parameters(layer)
+    8
+    >>> _ = layer.bias.requires_grad_(False)  # freeze the biases
+    >>> count_parameters(layer, trainable_only=True)
+    6
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
     return sum(p.numel() for p in model.parameters() if p.requires_grad or not trainable_only)
-
-
-def parameter_breakdown(model: E2V) -> dict[str, int]:
-    """Parameters per part: ``encoder``, ``bridge``, ``decoder``, ``head`` (and ``total``).
-
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    parts = {name: count_parameters(getattr(model, name))
-             for name in ("encoder", "bridge", "decoder", "head")}
-    parts["total"] = sum(parts.values())
-    return parts
-
-
-def _stages(model: E2V) -> list[tuple[str, nn.Module]]:
-    enc = model.encoder
-    if isinstance(enc, ResNetEncoder):
-        stages = [("encoder.stem", enc.stem)] + [
-            (f"encoder.layer{i}", getattr(enc, f"layer{i}")) for i in range(1, 5)
-        ]
-    else:
-        stages = [("encoder", enc)]
-    stages.append(("bridge", model.bridge))
-    n = len(model.decoder.down)
-    stages += [(f"decoder.down{i + 1}", b) for i, b in enumerate(model.decoder.down)]
-    stages.append(("decoder.bottleneck", model.decoder.bottleneck))
-    stages += [(f"decoder.up{n - i}", b) for i, b in enumerate(model.decoder.up)]
-    stages.append(("head", model.head))
-    return stages
-
-
-def summary(model: E2V, batch_size: int = 1) -> list[dict[str, Any]]:
-    """Stage-by-stage table of an E2V for a batch of ``batch_size`` inputs.
-
-    One dict per stage, in forward order: ``name``, ``shape`` (output shape, batch axis
-    included), ``params`` and ``saved_bytes`` (bytes of the activations autograd keeps
-    inside that stage for the backward pass of a training step, weights excluded). Runs on
-    a meta-device copy built from ``model.config``, so it allocates nothing and takes about
-    a second even for the paper preset, whatever device ``model`` lives on.
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    rows, _ = _profile(model, batch_size)
-    return rows
-
-
-def activation_bytes(model: E2V, batch_size: int = 1) -> int:
-    """Bytes autograd saves for the backward pass in one training-mode forward pass.
-
-    Measured, not guessed: every tensor the forward pass stores for backward is counted
-    once per storage (views and in-place results are not double counted), on a meta-device
-    copy; the weights themselves are left out. The result already includes ``batch_size``.
-    Weights, their gradients and optimizer state come on top.
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    _, total = _profile(model, batch_size)
-    return total
-
-
-def _profile(model: E2V, batch_size: int) -> tuple[list[dict[str, Any]], int]:
-    if batch_size < 1:
-        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
-    with torch.device("meta"):
-        twin = E2V(model.config)
-    # Eval mode: BatchNorm then saves the same input for backward as in training, but also
-    # works for one sample whose deepest feature map is 1x1x1 (train-mode BN refuses that).
-    twin.eval()
-    rows: dict[str, dict[str, Any]] = {}
-    current = ["input"]
-    saved: dict[int, tuple[str, int]] = {}
-    handles = []
-    for name, stage in _stages(twin):
-        rows[name] = {"name": name, "shape": None, "params": count_parameters(stage),
-                      "saved_bytes": 0}
-
-        def pre_hook(_m: nn.Module, _i: Any, name: str = name) -> None:
-            current[0] = name
-
-        def post_hook(_m: nn.Module, _i: Any, out: torch.Tensor, name: str = name) -> None:
-            rows[name]["shape"] = tuple(out.shape)
-
-        handles.append(stage.register_forward_pre_hook(pre_hook))
-        handles.append(stage.register_forward_hook(post_hook))
-
-    # Meta tensors have no addresses; the storage object's C++ handle identifies a storage
-    # while the graph keeps it alive (views and in-place outputs share it). Weights that
-    # autograd keeps a reference to are not activations, nor are per-channel statistics
-    # (1-D): count only saved tensors with a batch axis.
-    weights = {p.untyped_storage()._cdata for p in twin.parameters()}
-
-    def pack(t: torch.Tensor) -> torch.Tensor:
-        key = t.untyped_storage()._cdata
-        if t.ndim >= 2 and key not in saved and key not in weights:
-            saved[key] = (current[0], t.untyped_storage().nbytes())
-        return t
-
-    try:
-        with torch.autograd.graph.saved_tensors_hooks(pack, lambda t: t):
-            out = twin(torch.empty(batch_size, *twin.input_shape, device="meta"))
-    finally:
-        for handle in handles:
-            handle.remove()
-    del out
-    for stage_name, nbytes in saved.values():
-        if stage_name in rows:
-            rows[stage_name]["saved_bytes"] += nbytes
-    return list(rows.values()), sum(nbytes for _, nbytes in saved.values())
-
-
-def format_summary(rows: list[dict[str, Any]]) -> str:
-    """Render :func:`summary` rows as a fixed-width text table with a total line.
-
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    lines = [f"{'stage':<20} {'output shape':<28} {'params':>13} {'saved MiB':>10}"]
-    for r in rows:
-        lines.append(f"{r['name']:<20} {str(r['shape']):<28} {r['params']:>13,} "
-                     f"{r['saved_bytes'] / 2**20:>10.1f}")
-    total_p = sum(r["params"] for r in rows)
-    total_b = sum(r["saved_bytes"] for r in rows)
-    lines.append(f"{'total':<20} {'':<28} {total_p:>13,} {total_b / 2**20:>10.1f}")
-    return "\n".join(lines)
-
-
-# --------------------------------------------------------------------------- checkpoints
-
-
-def save_checkpoint(path: str | os.PathLike, model: E2V, **extra: Any) -> Path:
-    """Write ``{"config": dict, "model": state_dict, **extra}`` to ``path`` atomically.
-
-    The file is written next to ``path`` under a temporary name and then renamed, so an
-    existing checkpoint is never left half-written. ``extra`` may hold anything
-    ``torch.load(weights_only=True)`` reads back (tensors, numbers, strings, lists, dicts:
-    e.g. an optimizer state_dict, the epoch). Returns the path.
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    model = getattr(model, "module", model)  # unwrap DistributedDataParallel/DataParallel
-    if not isinstance(model, E2V):
-        raise ValueError(f"save_checkpoint stores E2V models, got {type(model).__name__}; "
-                         "save other modules with torch.save(module.state_dict(), path)")
-    clash = {"config", "model"} & set(extra)
-    if clash:
-        raise ValueError(f"extra keys {sorted(clash)} are reserved for the model; rename them")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    payload = {"config": model.config.to_dict(), "model": model.state_dict(), **extra}
-    _write_payload(path, payload)
-    return path
-
-
-def read_checkpoint(path: str | os.PathLike, map_location: str | torch.device = "cpu") -> dict:
-    """Load and check a checkpoint dict (``"config"``, ``"model"`` and any extra keys).
-
-    Uses ``torch.load(weights_only=True)``: no arbitrary code runs. Raises
-    FileNotFoundError if the file is missing and :class:`CheckpointError` (a ValueError)
-    naming the file if it is corrupted or lacks the keys. Introduced in
-    notebooks/05_the_e2v_model.ipynb.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"checkpoint {path} does not exist; train one first "
-                                "(python -m e2vlib train ... writes OUT/best.pt) or fix the path")
-    try:
-        ckpt = torch.load(path, map_location=map_location, weights_only=True)
-    except Exception as err:  # zip/pickle errors come in many types
-        raise CheckpointError(
-            f"cannot read checkpoint {path}: it is corrupted, truncated or not a torch file "
-            f"({type(err).__name__}: {str(err)[:200]}). Re-create it with save_checkpoint."
-        ) from err
-    if not isinstance(ckpt, dict) or not {"config", "model"} <= set(ckpt):
-        keys = sorted(ckpt) if isinstance(ckpt, dict) else type(ckpt).__name__
-        raise CheckpointError(f"checkpoint {path} must be a dict with 'config' and 'model' "
-                              f"keys (as written by save_checkpoint), got {keys}")
-    return ckpt
-
-
-def load_checkpoint(path: str | os.PathLike, map_location: str | torch.device = "cpu") -> E2V:
-    """Rebuild the :class:`E2V` stored at ``path`` (its config + weights), in eval mode.
-
-    Accepts any dict holding ``"config"`` and ``"model"`` (extra keys such as optimizer
-    state are ignored; use :func:`read_checkpoint` to get them). Errors as in
-    :func:`read_checkpoint`. Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    return model_from_checkpoint(read_checkpoint(path, map_location), map_location,
-                                 f"checkpoint {path}")
-
-
-def model_from_checkpoint(ckpt: dict, map_location: str | torch.device = "cpu",
-                          source: object = "checkpoint") -> E2V:
-    """Rebuild the :class:`E2V` of a dict from :func:`read_checkpoint`, in eval mode.
-
-    For callers that also need the checkpoint's other entries (metadata, history)
-    without reading the file twice. Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    try:
-        model = E2V(E2VConfig.from_dict(dict(ckpt["config"])))
-        model.load_state_dict(ckpt["model"])
-    except (ValueError, TypeError, RuntimeError) as err:
-        raise CheckpointError(f"{source} does not match an E2V model: {err}") from err
-    return model.to(map_location).eval()
-
-
-def slim_checkpoint(src: str | os.PathLike, dst: str | os.PathLike, half: bool = True,
-                    keep: tuple[str, ...] = ("history", "metadata", "recipe", "epoch",
-                                             "best_iou", "seed")) -> Path:
-    """Copy a training checkpoint without its optimizer state, for shipping.
-
-    Keeps the config, the weights (as float16 when ``half``: ``load_checkpoint`` casts
-    them back to float32) and the ``keep`` entries. The committed
-    ``data_small/checkpoints/tiny.pt`` was made this way. Introduced in
-    notebooks/06_training.ipynb.
-    """
-    ckpt = read_checkpoint(src)
-    state = {k: v.half() if half and v.is_floating_point() else v
-             for k, v in ckpt["model"].items()}
-    config = E2VConfig.from_dict(dict(ckpt["config"]))  # validates the stored config
-    extra = {k: ckpt[k] for k in keep if k in ckpt}
-    path = Path(dst)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    _write_payload(path, {"config": config.to_dict(), "model": state, **extra})
-    return path
-
-
-def _write_payload(path: Path, payload: dict) -> None:
-    """``torch.save`` to a temporary name next to ``path``, then rename over it."""
-    from e2vlib.files import atomic_path
-
-    with atomic_path(path) as tmp:
-        torch.save(payload, tmp)

@@ -1,0 +1,434 @@
+"""Experiments: the paper's open questions as studies, one recorded run per (config, seed).
+
+A *study* is a question (which event representation? how many frames? which encoder? which
+loss?) and a set of named *configs*, each a small dict of what differs from the study's base
+protocol. :func:`run_study` trains and evaluates every (config, seed) with the library's own
+:func:`~e2vlib.train.fit` and :func:`~e2vlib.train.evaluate`, and appends one record per run
+to ``OUT/STUDY.json`` (written atomically after every run). Runs already recorded are
+skipped, so an interrupted study resumes where it stopped. :func:`summarize` turns a results
+file into mean, standard deviation and a 95 % interval per config.
+
+Command line: ``python -m e2vlib experiment STUDY [--configs ...] [--seeds 0 1 2]``.
+Introduced in notebooks/09_event_representations_and_time.ipynb.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from e2vlib import paper
+from e2vlib.files import atomic_path
+
+REPO = Path(__file__).resolve().parent.parent
+DEFAULT_OUT = Path("experiments/results")
+EVENTS_CACHE = Path("cache/events_small")
+"""Where ``make-data`` puts data_small's samples with the raw events of every sample."""
+
+EVENTS_COMMAND = ("python -m e2vlib make-data --out cache/events_small --preset small "
+                  "--raw-events-per-category 64 --workers 2")
+"""The command that builds :data:`EVENTS_CACHE` (same objects and splits as data_small)."""
+
+BASE: dict = {
+    "data": "data_small",
+    "events": str(EVENTS_CACHE),
+    "representation": "binary",
+    "n_frames": paper.N_EVENT_FRAMES,
+    "dt_us": paper.DT_US,
+    "frame_size": paper.FRAME_SIZE_PX,
+    "preset": "tiny",
+    "loss": "bce",
+    "recipe": "tiny",
+    "epochs": 12,
+    "threads": 2,
+}
+"""The shared protocol: every config of every study changes only some of these keys."""
+
+QUICK: dict = {"epochs": 1, "per_category": 2, "frame_size": 32}
+"""Quick mode (CI, live lesson demos): 2 training samples per category, 1 epoch, 32 px."""
+
+THRESHOLDS = tuple(np.round(np.arange(0.05, 0.96, 0.05), 2).tolist())
+"""Candidate voxelisation thresholds for the one picked on the validation split."""
+
+
+@dataclass(frozen=True)
+class Study:
+    """A question and the configs that answer it (``config name -> params``)."""
+
+    name: str
+    question: str
+    configs: dict[str, dict]
+    base: dict = field(default_factory=dict)
+
+    def protocol(self, quick: bool = False) -> dict:
+        """The base protocol of this study (``BASE`` + the study's own base + quick)."""
+        return {**BASE, **self.base, **(QUICK if quick else {})}
+
+
+STUDIES: dict[str, Study] = {
+    "representation": Study(
+        "representation",
+        "The paper uses binary event frames and names time surfaces and other "
+        "representations as future work: which input lets the same network learn most?",
+        {name: {"representation": name} for name in (
+            "binary", "binary_paper", "count", "polarity", "time_surface", "voxel_grid",
+            "edges")},
+    ),
+    "time": Study(
+        "time",
+        "The paper fixes 100 frames of 5 ms at 256 px: how do the number of frames over the "
+        "same 0.5 s, and the frame size, change the result?",
+        {
+            "10x50ms": {"n_frames": 10, "dt_us": 50_000},
+            "25x20ms": {"n_frames": 25, "dt_us": 20_000},
+            "50x10ms": {"n_frames": 50, "dt_us": 10_000},
+            "100x5ms": {},
+            "200x2.5ms": {"n_frames": 200, "dt_us": 2_500},
+            "32px": {"frame_size": 32},
+            "128px": {"frame_size": 128},
+        },
+    ),
+    "encoder": Study(
+        "encoder",
+        "The paper suggests LSTM/GRU or EfficientNet encoders instead of its 3D ResNet: "
+        "does a recurrent encoder over per-frame 2D features do better at equal size?",
+        {"resnet3d": {"preset": "tiny"}, "cnn_gru": {"preset": "tiny_gru"},
+         "cnn_pool": {"preset": "tiny2d"}},
+    ),
+    "loss": Study(
+        "loss",
+        "The paper trains with mean binary cross-entropy; do focal or BCE + Dice losses, "
+        "which weigh the rare occupied voxels more, give better grids?",
+        {"bce": {"loss": "bce"}, "focal": {"loss": "focal"}, "bce_dice": {"loss": "bce_dice"}},
+    ),
+}
+"""The studies of issue 12, by name."""
+
+
+# ----------------------------------------------------------------------------- data
+
+
+def _needs_events(protocol: dict) -> bool:
+    """True unless the stored binary 5 ms frames of ``data`` can be used as they are."""
+    return not (protocol["representation"] == "binary"
+                and protocol["n_frames"] == paper.N_EVENT_FRAMES
+                and protocol["dt_us"] == paper.DT_US
+                and paper.FRAME_SIZE_PX % protocol["frame_size"] == 0)
+
+
+def _check_events_folder(protocol: dict) -> Path:
+    from e2vlib.data import BuildConfig
+
+    events, data = Path(protocol["events"]), Path(protocol["data"])
+    if not (events / "config.json").exists():
+        raise FileNotFoundError(
+            f"this config needs the raw events of every sample, in {events}; build them "
+            f"once with `{EVENTS_COMMAND}` (about 15 min on 2 cores)")
+    mine = BuildConfig.from_dict(json.loads((events / "config.json").read_text())).to_dict()
+    theirs = BuildConfig.from_dict(json.loads((data / "config.json").read_text())).to_dict()
+    mine.pop("raw_events_per_category")
+    theirs.pop("raw_events_per_category")
+    if mine != theirs:
+        raise ValueError(f"{events} was built with other settings than {data} "
+                         f"({mine} vs {theirs}); rebuild it with `{EVENTS_COMMAND}`")
+    return events
+
+
+def _subset(tensors, per_category: int | None):
+    """The first ``per_category`` items of each category (quick mode), else everything."""
+    if per_category is None:
+        return tensors
+    seen: dict[str, int] = {}
+    keep = []
+    for i, category in enumerate(tensors.categories):
+        if seen.get(category, 0) < per_category:
+            keep.append(i)
+            seen[category] = seen.get(category, 0) + 1
+    return tensors.subset(keep)
+
+
+def input_config(dataset_config: dict, protocol: dict) -> dict:
+    """The dataset's build settings with the frame settings of ``protocol``: what a
+    checkpoint trained on these inputs records (see ``e2vlib.model.check_frames_match``)."""
+    return {**dataset_config, "n_frames": protocol["n_frames"], "dt_us": protocol["dt_us"],
+            "frame_size": protocol["frame_size"],
+            "windows": "paper" if protocol["representation"] == "binary_paper" else "fixed",
+            "representation": protocol["representation"]}
+
+
+_MEMORY: dict[str, object] = {}
+
+
+def _input_key(protocol: dict, split: str) -> str:
+    keys = ("representation", "n_frames", "dt_us", "frame_size")
+    text = json.dumps({k: protocol[k] for k in keys} | {"split": split,
+                                                        "data": protocol["data"]})
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def load_split(protocol: dict, split: str, progress: bool = False):
+    """The ``split`` of the protocol's data as a :class:`~e2vlib.train.TensorSet` whose
+    frames are the protocol's representation, ``(N, D, S, S)`` or ``(N, C, D, S, S)``.
+
+    Stored binary frames are used directly (max-pooled to a smaller ``frame_size``);
+    every other input is computed from the raw events in ``protocol["events"]`` and kept in
+    memory for the next run of the same process.
+    """
+    import torch
+
+    from e2vlib.data import E2VDataset
+    from e2vlib.frames import downsample
+    from e2vlib.train import TensorSet, preload
+
+    key = _input_key(protocol, split)
+    if key in _MEMORY:
+        return _subset(_MEMORY[key], protocol.get("per_category"))
+    dataset = E2VDataset(protocol["data"], split)
+    if not _needs_events(protocol):
+        tensors = preload(dataset, progress=progress)
+        factor = paper.FRAME_SIZE_PX // protocol["frame_size"]
+        frames = tensors.frames
+        if factor > 1:
+            frames = torch.from_numpy(downsample(frames.numpy(), factor))
+        tensors = TensorSet(frames, tensors.voxels, tensors.categories, tensors.ids,
+                            input_config(dataset.config, protocol))
+    else:
+        from tqdm.auto import tqdm
+
+        from e2vlib.inputs import events_to_input
+        from e2vlib.io import load_events
+
+        events_root = _check_events_folder(protocol)
+        frames, voxels = [], []
+        for index in tqdm(range(len(dataset)), desc=f"{protocol['representation']} {split}",
+                          disable=not progress, leave=False):
+            sample_id = dataset.ids[index]
+            events, sensor = load_events(events_root / "events" / f"{sample_id}.npz")
+            x = events_to_input(events, sensor, protocol["representation"],
+                                protocol["frame_size"], protocol["n_frames"], protocol["dt_us"])
+            frames.append(torch.from_numpy(x if x.dtype == np.uint8 else x.astype(np.float16)))
+            voxels.append(torch.from_numpy(dataset.arrays(index)[1]))
+        tensors = TensorSet(torch.stack(frames), torch.stack(voxels), list(dataset.categories),
+                            list(dataset.ids), input_config(dataset.config, protocol))
+    if len(_MEMORY) >= 3:  # keep one protocol's train/val/test, not every representation's
+        _MEMORY.clear()
+    _MEMORY[key] = tensors
+    return _subset(tensors, protocol.get("per_category"))
+
+
+# ----------------------------------------------------------------------------- one run
+
+
+def _commit() -> str:
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, text=True,
+                              capture_output=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "e2vlib"], cwd=REPO, text=True,
+                               capture_output=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("-dirty" if dirty else "")
+
+
+def best_threshold(probabilities, voxels, thresholds: Iterable[float] = THRESHOLDS) -> float:
+    """The threshold of ``thresholds`` with the highest mean IoU (ties: the lowest).
+
+    Examples
+    --------
+    >>> gt = np.zeros((1, 32, 32, 32)); gt[0, :8] = 1
+    >>> p = np.where(gt > 0, 0.62, 0.58)     # only thresholds in (0.58, 0.62] separate them
+    >>> best_threshold(p, gt)
+    0.6
+    """
+    from e2vlib.metrics import iou
+
+    scores = [float(np.mean(iou(probabilities, voxels, threshold=t))) for t in thresholds]
+    return float(list(thresholds)[int(np.argmax(scores))])
+
+
+def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | None = None,
+            progress: bool = False) -> dict:
+    """Train and evaluate one (protocol, seed); return its record (without config name)."""
+    import tempfile
+
+    import torch
+
+    from e2vlib.inputs import input_channels
+    from e2vlib.model import build_e2v, load_checkpoint
+    from e2vlib.train import evaluate, fit, predict, resolve_device
+
+    torch.set_num_threads(int(protocol["threads"]))
+    train = load_split(protocol, "train", progress)
+    val = load_split(protocol, "val", progress)
+    test = load_split(protocol, "test", progress)
+    channels = input_channels(protocol["representation"])
+    shape = tuple(train.frames.shape[-3:])
+    overrides = {"in_channels": channels} if channels > 1 else {}
+    model = build_e2v(protocol["preset"], seed=seed, input_shape=shape, **overrides)
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        started = time.perf_counter()
+        history = fit(model, train, val, tmp, recipe=protocol["recipe"],
+                      epochs=protocol["epochs"], device=device, seed=seed,
+                      loss=protocol["loss"], progress=progress)
+        train_seconds = time.perf_counter() - started
+        best = load_checkpoint(Path(tmp) / "best.pt")
+    val_probabilities = predict(best, val.frames, device)
+    threshold = best_threshold(val_probabilities, val.voxels)
+    result = evaluate(best, test, device=device, progress=False)
+    metrics = {k: float(v) for k, v in result["overall"].items()}
+    test_probabilities = predict(best, test.frames, device)
+    from e2vlib.metrics import iou
+
+    metrics["val_threshold"] = threshold
+    metrics["iou@val_threshold"] = float(np.mean(iou(test_probabilities, test.voxels,
+                                                     threshold=threshold)))
+    metrics["per_category_iou@0.3"] = {c: float(v["iou@0.3"])
+                                      for c, v in result["per_category"].items()}
+    best_epoch = max(history, key=lambda h: h["val_iou"])
+    from e2vlib.model import count_parameters
+
+    return {
+        "seed": int(seed),
+        "metrics": metrics,
+        "best_epoch": int(best_epoch["epoch"]),
+        "best_val_iou@0.3": float(best_epoch["val_iou"]),
+        "n_parameters": count_parameters(best),
+        "train_seconds": round(train_seconds, 1),
+        "device": str(resolve_device(device)),
+        "torch": torch.__version__,
+        "commit": _commit(),
+    }
+
+
+# ----------------------------------------------------------------------------- a study
+
+
+def _read(path: Path) -> dict | None:
+    if not path.exists():
+        return None
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path} is not valid JSON ({err}); move it away to start the "
+                         "study afresh") from err
+
+
+def _write(path: Path, results: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(results, indent=1) + "\n")
+
+
+def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int],
+                 quick: bool) -> str:
+    """The command that reproduces (or resumes) a study."""
+    parts = ["python -m e2vlib experiment", study]
+    if configs:
+        parts += ["--configs", *configs]
+    parts += ["--seeds", *map(str, seeds)]
+    if quick:
+        parts.append("--quick")
+    return " ".join(parts)
+
+
+def run_study(study: str, configs: Sequence[str] | None = None,
+              seeds: Sequence[int] = (0, 1, 2), out: str | os.PathLike = DEFAULT_OUT,
+              device: str = "auto", quick: bool = False, progress: bool = True,
+              base_overrides: dict | None = None) -> Path:
+    """Run every (config, seed) of ``study`` not yet in ``OUT/STUDY.json``; return the path.
+
+    ``base_overrides`` changes the shared protocol (for example ``{"data": ...}`` in tests);
+    a results file whose protocol differs from this one is refused, so results made under
+    different protocols never mix.
+    """
+    from tqdm.auto import tqdm
+
+    if study not in STUDIES:
+        raise ValueError(f"unknown study {study!r}; choose one of {', '.join(STUDIES)}")
+    spec = STUDIES[study]
+    names = list(configs) if configs else list(spec.configs)
+    unknown = [n for n in names if n not in spec.configs]
+    if unknown:
+        raise ValueError(f"study {study!r} has no configs {unknown}; it has "
+                         f"{', '.join(spec.configs)}")
+    if not seeds:
+        raise ValueError("give at least one seed")
+    protocol = {**spec.protocol(quick), **(base_overrides or {})}
+    path = Path(out) / f"{study}.json"
+    results = _read(path) or {"study": study, "question": spec.question,
+                              "protocol": protocol, "runs": []}
+    if results["protocol"] != protocol:
+        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
+                         f"use another --out folder to run this one ({protocol})")
+    results["command"] = command_line(study, configs, seeds, quick)
+    done = {(r["config"], r["seed"]) for r in results["runs"]}
+    todo = [(n, s) for n in names for s in seeds if (n, int(s)) not in done]
+    bar = tqdm(todo, desc=f"{study} runs", unit="run", disable=not progress)
+    for name, seed in bar:
+        bar.set_postfix(config=name, seed=seed)
+        params = spec.configs[name]
+        record = run_one({**protocol, **params}, int(seed), device=device, progress=progress)
+        results["runs"].append({"config": name, "params": params, **record})
+        _write(path, results)
+        if progress:
+            tqdm.write(f"{study}/{name} seed {seed}: test IoU@0.3 "
+                       f"{record['metrics']['iou@0.3']:.3f} ({record['train_seconds']:.0f} s)")
+    if not todo:
+        _write(path, results)
+    return path
+
+
+# ----------------------------------------------------------------------------- summaries
+
+
+def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> list[dict]:
+    """Mean, standard deviation and 95 % interval of ``metric`` per config, in study order.
+
+    Each row: ``{"config", "params", "n", "mean", "std", "ci95": (low, high), "values"}``;
+    the interval is Student's t over the seeds (``std`` with ``ddof=1``; NaN for one seed).
+
+    Examples
+    --------
+    >>> runs = [{"config": "a", "params": {}, "seed": s, "metrics": {"iou@0.3": v}}
+    ...         for s, v in enumerate([0.40, 0.42, 0.44])]
+    >>> row = summarize({"runs": runs})[0]
+    >>> row["n"], round(row["mean"], 3), round(row["std"], 3)
+    (3, 0.42, 0.02)
+    >>> [round(v, 3) for v in row["ci95"]]   # 0.42 -+ 4.303 * 0.02 / sqrt(3)
+    [0.37, 0.47]
+    """
+    from scipy import stats
+
+    if not isinstance(results, dict):
+        results = json.loads(Path(results).read_text())
+    rows: dict[str, dict] = {}
+    for run in results["runs"]:
+        row = rows.setdefault(run["config"], {"config": run["config"],
+                                              "params": run.get("params", {}), "values": []})
+        row["values"].append(float(run["metrics"][metric]))
+    for row in rows.values():
+        values = np.asarray(row["values"])
+        row["n"] = len(values)
+        row["mean"] = float(values.mean())
+        row["std"] = float(values.std(ddof=1)) if len(values) > 1 else float("nan")
+        half = (float(stats.t.ppf(0.975, len(values) - 1)) * row["std"] / np.sqrt(len(values))
+                if len(values) > 1 else float("nan"))
+        row["ci95"] = (row["mean"] - half, row["mean"] + half)
+    return list(rows.values())
+
+
+def format_summary(rows: list[dict], metric: str = "iou@0.3") -> str:
+    """A markdown table of :func:`summarize` rows."""
+    lines = [f"| config | n | {metric} mean ± std | 95 % interval |", "| --- | --- | --- | --- |"]
+    for row in rows:
+        lines.append(f"| {row['config']} | {row['n']} | {row['mean']:.3f} ± {row['std']:.3f} | "
+                     f"{row['ci95'][0]:.3f}–{row['ci95'][1]:.3f} |")
+    return "\n".join(lines)

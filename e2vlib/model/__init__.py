@@ -1,0 +1,116 @@
+"""The E2V model: a 3D ResNet encoder, a bridge to a 32^3 hidden volume, a UNet decoder.
+
+Input ``(batch, n_frames, H, W)`` float event frames (the frame axis is time), output
+``(batch, 32, 32, 32)`` occupancy logits indexed ``[b, x, y, z]``; probabilities are
+``sigmoid(logits)``. Every public name is importable from here
+(``from e2vlib.model import E2V, build_e2v, load_checkpoint``); the code lives in three
+modules, each with one job:
+
+=========================  =================================================================
+``model.networks``         :class:`E2VConfig`, building blocks (:class:`BasicBlock`,
+                           :class:`Bottleneck`), encoders (:class:`ResNetEncoder`,
+                           :class:`Frames2dEncoder`), :class:`Bridge`, :class:`UNetDecoder`,
+                           :class:`E2V`, :data:`PRESETS`, :func:`build_e2v`,
+                           :func:`count_parameters`
+``model.checkpoint``       checkpoint files: :func:`save_checkpoint`,
+                           :func:`read_checkpoint` (digest and NaN checks),
+                           :func:`load_checkpoint`, :func:`model_from_checkpoint`,
+                           :func:`slim_checkpoint`, :class:`CheckpointError`, and the data
+                           config a model was trained on (:func:`checkpoint_data_config`,
+                           :func:`check_frames_match`)
+``model.summary``          size and memory: :func:`parameter_breakdown`, :func:`summary`,
+                           :func:`format_summary`, :func:`activation_bytes`
+=========================  =================================================================
+
+``networks`` imports only ``e2vlib.paper``; ``checkpoint`` and ``summary`` import
+``networks`` (and ``e2vlib.files``); none imports this package's ``__init__``. The
+package attribute ``e2vlib.model.summary`` is the function :func:`summary`; import the
+module itself as ``from e2vlib.model.summary import ...`` or with
+``importlib.import_module("e2vlib.model.summary")``.
+
+Introduced in notebooks/05_the_e2v_model.ipynb.
+"""
+
+from e2vlib.model.checkpoint import (
+    DATA_CONFIG_KEY,
+    DIGEST_KEY,
+    FRAME_FIELDS,
+    CheckpointError,
+    check_frames_match,
+    checkpoint_data_config,
+    frame_settings,
+    load_checkpoint,
+    model_from_checkpoint,
+    read_checkpoint,
+    save_checkpoint,
+    slim_checkpoint,
+    verify_weights,
+    weights_digest,
+)
+from e2vlib.model.networks import (
+    BOTTLENECKS,
+    BRIDGES,
+    E2V,
+    ENCODERS,
+    GRID_SIDE,
+    NORMS,
+    PAPER_PARAMETERS,
+    PRESETS,
+    RESNET_LAYERS,
+    VOXEL_RESOLUTION,
+    BasicBlock,
+    Bottleneck,
+    Bridge,
+    E2VConfig,
+    Frames2dEncoder,
+    ResNetEncoder,
+    UNetDecoder,
+    build_e2v,
+    count_parameters,
+)
+from e2vlib.model.summary import (
+    activation_bytes,
+    format_summary,
+    parameter_breakdown,
+    summary,
+)
+
+__all__ = [
+    "BOTTLENECKS",
+    "BRIDGES",
+    "DATA_CONFIG_KEY",
+    "DIGEST_KEY",
+    "E2V",
+    "ENCODERS",
+    "FRAME_FIELDS",
+    "GRID_SIDE",
+    "NORMS",
+    "PAPER_PARAMETERS",
+    "PRESETS",
+    "RESNET_LAYERS",
+    "VOXEL_RESOLUTION",
+    "BasicBlock",
+    "Bottleneck",
+    "Bridge",
+    "CheckpointError",
+    "E2VConfig",
+    "Frames2dEncoder",
+    "ResNetEncoder",
+    "UNetDecoder",
+    "activation_bytes",
+    "build_e2v",
+    "check_frames_match",
+    "checkpoint_data_config",
+    "count_parameters",
+    "format_summary",
+    "frame_settings",
+    "load_checkpoint",
+    "model_from_checkpoint",
+    "parameter_breakdown",
+    "read_checkpoint",
+    "save_checkpoint",
+    "slim_checkpoint",
+    "summary",
+    "verify_weights",
+    "weights_digest",
+]
