@@ -467,6 +467,38 @@ class E2VDataset(Dataset):
         return [category for _, category, _ in self.items]
 
     @property
+    def ids(self) -> list[str]:
+        """Sample id of every item, in item order: ``dataset.ids[i] == dataset[i]["id"]``.
+
+        Introduced in notebooks/08_visualizing_in_3d.ipynb.
+        """
+        return [sample_id for sample_id, _, _ in self.items]
+
+    def category_indices(self) -> dict[str, list[int]]:
+        """``{category: [item indices of its samples, ascending]}``, categories in first-seen order.
+
+        Introduced in notebooks/08_visualizing_in_3d.ipynb.
+        """
+        out: dict[str, list[int]] = {}
+        for i, category in enumerate(self.categories):
+            out.setdefault(category, []).append(i)
+        return out
+
+    def raw_events_path(self, index: int) -> Path | None:
+        """Path of the raw events kept for item ``index`` (``root/events/<id>.npz``), or None.
+
+        The builder keeps raw events (``e2vlib.io`` format) for only a few samples per
+        category (one in ``data_small``); the others store frames only. SynthEVox3D scans
+        give None: their ``events.npz`` is the release's own format, which :meth:`arrays`
+        reads. Introduced in notebooks/08_visualizing_in_3d.ipynb.
+        """
+        if not 0 <= index < len(self.items):
+            raise IndexError(f"index {index} is out of range for {len(self.items)} items; "
+                             f"use 0..{len(self.items) - 1}")
+        path = self.root / "events" / f"{self.items[index][0]}.npz"
+        return path if self.layout == "e2vlib" and path.is_file() else None
+
+    @property
     def input_shape(self) -> tuple[int, int, int]:
         """``(D, H, W)`` of the frames."""
         return (self.config["n_frames"], self.frame_size, self.frame_size)

@@ -2,8 +2,12 @@
 
 The work is done by plain functions (:func:`explorer_view` returns numbers and a figure,
 so tests can call it with many values); :func:`dataset_explorer` only wires them to
-ipywidgets sliders. Under nbmake a widget callback runs once with its defaults, so the
-notebook also calls :func:`explorer_view` directly.
+ipywidgets controls with :func:`e2vlib.viz.interactive_figure`, which also shows the
+default view as a picture where no widget can run (nbmake, a notebook viewer).
+
+``dataset`` is an :class:`e2vlib.data.E2VDataset` (its ``ids``, ``category_indices()``,
+``raw_events_path(i)`` and ``arrays(i)``); this module does not import ``e2vlib.data``
+(nor torch) itself.
 
 Introduced in notebooks/08_visualizing_in_3d.ipynb.
 """
@@ -12,36 +16,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from pathlib import Path
 
 import numpy as np
 
-from e2vlib.data import DT_US, N_FRAMES
-
-RECORDING_US = N_FRAMES * DT_US  # the 0.5 s the model sees
-
-
-def category_indices(dataset) -> dict[str, list[int]]:
-    """``{category: [dataset indices of its samples]}``, categories in first-seen order.
-
-    Introduced in notebooks/08_visualizing_in_3d.ipynb.
-    """
-    out: dict[str, list[int]] = {}
-    for i, category in enumerate(dataset.categories):
-        out.setdefault(category, []).append(i)
-    return out
-
-
-def raw_events_path(dataset, index: int) -> Path | None:
-    """Path of the raw events kept for item ``index`` (``ROOT/events/<id>.npz``), or None.
-
-    The builder keeps raw events for only a few samples per category (one in
-    ``data_small``); the others store frames only. Introduced in
-    notebooks/08_visualizing_in_3d.ipynb.
-    """
-    sample_id = dataset.items[index][0]
-    path = Path(dataset.root) / "events" / f"{sample_id}.npz"
-    return path if path.is_file() else None
+from e2vlib.paper import DT_US, IOU_THRESHOLD, RECORDING_US
 
 
 class PredictionCache(Mapping):
@@ -78,7 +56,7 @@ class PredictionCache(Mapping):
 
 
 def _frames_at(events: np.ndarray, sensor_size: tuple[int, int], dt_ms: float) -> np.ndarray:
-    """Binary frames of ``dt_ms`` covering the 0.5 s from t = 0, as the dataset uses."""
+    """Binary frames of ``dt_ms`` covering the recording (0.5 s) from t = 0, as the dataset."""
     from e2vlib.frames import accumulate
 
     dt_us = max(1, round(dt_ms * 1000))
@@ -91,8 +69,8 @@ def explorer_view(
     predictions: Mapping[int, np.ndarray] | None,
     category: str,
     index: int,
-    threshold: float = 0.3,
-    dt_ms: float = 5.0,
+    threshold: float = IOU_THRESHOLD,
+    dt_ms: float = DT_US / 1000,
     n_shown: int = 8,
     max_events: int = 15_000,
     figure: bool = True,
@@ -101,18 +79,19 @@ def explorer_view(
 
     ``predictions`` maps dataset indices to probabilities ``(32, 32, 32)`` (a
     :class:`PredictionCache`, a dict, or None for no model). Frames are re-accumulated
-    at ``dt_ms`` from the raw events when the sample kept them, else the stored 5 ms
-    frames are shown (and ``dt_ms`` is ignored). Returns ``{"id", "category",
-    "dataset_index", "has_events", "n_events", "dt_ms", "frames" (k, H, W) (the panels
-    shown), "n_frames" (all frames at dt), "n_true", "n_pred", "iou", "message",
-    "figure"}``; ``iou`` (at ``threshold``) and ``n_pred`` are None without predictions,
-    ``figure`` is a matplotlib figure (None with ``figure=False``).
+    at ``dt_ms`` from the raw events when the sample kept them, else the dataset's stored
+    frames are shown (5 ms each with the paper's settings; ``dt_ms`` is then ignored).
+    Returns ``{"id", "category", "dataset_index", "has_events", "n_events", "dt_ms",
+    "frames" (k, H, W) (the panels shown), "n_frames" (all frames at dt), "n_true",
+    "n_pred", "iou", "message", "figure"}``; ``iou`` (at ``threshold``) and ``n_pred``
+    are None without predictions, ``figure`` is a matplotlib figure (None with
+    ``figure=False``).
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
     """
     from e2vlib.io import load_events
     from e2vlib.metrics import iou
 
-    groups = category_indices(dataset)
+    groups = dataset.category_indices()
     if category not in groups:
         raise ValueError(f"category {category!r} is not in this split; choose from "
                          f"{', '.join(groups)}")
@@ -125,10 +104,10 @@ def explorer_view(
     if not dt_ms > 0:
         raise ValueError(f"dt_ms must be positive, got {dt_ms!r}")
     ds_index = members[int(index)]
-    sample_id = dataset.items[ds_index][0]
+    sample_id = dataset.ids[ds_index]
     stored_frames, voxels = dataset.arrays(ds_index)
 
-    events_path = raw_events_path(dataset, ds_index)
+    events_path = dataset.raw_events_path(ds_index)
     events = sensor_size = None
     if events_path is not None:
         events, sensor_size = load_events(events_path)
@@ -136,10 +115,11 @@ def explorer_view(
         message = (f"{sample_id}: {len(events):,} raw events; frames of {dt_ms:g} ms "
                    f"at {sensor_size[0]} x {sensor_size[1]} px")
     else:
-        dt_ms = DT_US / 1000
+        dt_ms = dataset.config.get("dt_us", DT_US) / 1000  # the dataset's own frames
         all_frames = stored_frames
         message = (f"{sample_id}: no raw events stored for this sample (the dataset keeps "
-                   f"them for a few samples per category); showing the stored 5 ms frames")
+                   f"them for a few samples per category); showing the stored {dt_ms:g} ms "
+                   "frames")
     picks = np.linspace(0, len(all_frames) - 1, min(n_shown, len(all_frames))).round()
     picks = picks.astype(int)
     shown = all_frames[picks]
@@ -216,19 +196,23 @@ def _draw(view: dict, events, sensor_size, voxels, probs, threshold, picks, max_
 
 
 def dataset_explorer(dataset, model=None, predictions: Mapping[int, np.ndarray] | None = None,
-                     threshold: float = 0.3, dt_ms: float = 5.0, device: str = "cpu"):
-    """Sliders for category, sample, threshold and dt around :func:`explorer_view`.
+                     threshold: float = IOU_THRESHOLD, dt_ms: float = DT_US / 1000,
+                     device: str = "cpu"):
+    """Controls for category, sample, threshold and dt around :func:`explorer_view`.
 
     Give a ``model`` (its predictions are cached per sample) or ready ``predictions``.
-    Returns the ipywidgets box; the last expression of a cell displays it.
-    Introduced in notebooks/08_visualizing_in_3d.ipynb.
+    Returns the widget of :func:`e2vlib.viz.interactive_figure`; the last expression of a
+    cell displays it: the controls, then the message and the picture of the current
+    choice, which stay visible (at the defaults) in a notebook run without a widget
+    frontend. Introduced in notebooks/08_visualizing_in_3d.ipynb.
     """
     import ipywidgets as widgets
-    import matplotlib.pyplot as plt
+
+    from e2vlib.viz import interactive_figure
 
     if predictions is None and model is not None:
         predictions = PredictionCache(model, dataset, device)
-    groups = category_indices(dataset)
+    groups = dataset.category_indices()
     first = next(iter(groups))
     category = widgets.Dropdown(options=list(groups), value=first, description="category")
     index = widgets.IntSlider(value=0, min=0, max=len(groups[first]) - 1, description="sample")
@@ -241,14 +225,13 @@ def dataset_explorer(dataset, model=None, predictions: Mapping[int, np.ndarray] 
         index.value = 0
         index.max = len(groups[change["new"]]) - 1
 
-    category.observe(on_category, names="value")
+    category.observe(on_category, names="value")  # before the redraw: index first
 
     def show(category, index, threshold, dt_ms):
         view = explorer_view(dataset, predictions, category, index, threshold, dt_ms)
         score = "no model" if view["iou"] is None else f"IoU@{threshold:g} = {view['iou']:.3f}"
         print(f"{view['message']}\nlabel {view['n_true']} voxels; {score}")
-        plt.show()
+        return view["figure"]
 
-    out = widgets.interactive_output(show, {"category": category, "index": index,
-                                            "threshold": thresh, "dt_ms": dt})
-    return widgets.VBox([widgets.HBox([category, index]), widgets.HBox([thresh, dt]), out])
+    return interactive_figure(show, rows=[["category", "index"], ["threshold", "dt_ms"]],
+                              category=category, index=index, threshold=thresh, dt_ms=dt)

@@ -23,7 +23,11 @@ Introduced in notebooks/03_simulating_events.ipynb.
 
 from __future__ import annotations
 
+import ctypes.util
+import functools
 import math
+import os
+import sys
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -254,6 +258,40 @@ def _aim(camera, position: np.ndarray) -> None:
     camera.clipping_range = _CLIPPING_RANGE
 
 
+_OPENGL_WINDOW = "VTK_DEFAULT_OPENGL_WINDOW"
+
+
+@functools.cache
+def _headless_window_class() -> str | None:
+    """VTK's window class for the headless OpenGL library installed here (EGL first)."""
+    if ctypes.util.find_library("EGL"):
+        return "vtkEGLRenderWindow"
+    if ctypes.util.find_library("OSMesa"):
+        return "vtkOSOpenGLRenderWindow"
+    return None
+
+
+def headless_opengl_window() -> str | None:
+    """Choose VTK's headless OpenGL window on a Linux machine without a display.
+
+    VTK (9.4 and later) first tries an X window on Linux and, when there is no X server,
+    prints ``bad X server connection. DISPLAY=`` before it falls back to EGL or OSMesa.
+    Where ``DISPLAY`` is unset this sets the environment variable
+    ``VTK_DEFAULT_OPENGL_WINDOW`` to ``vtkEGLRenderWindow`` (or ``vtkOSOpenGLRenderWindow``
+    where only OSMesa is installed) so VTK goes there directly. A value the user set is
+    never changed; with a display, or with neither library, nothing is set. Returns the
+    value in force (None when VTK chooses itself). :func:`render_orbit` and
+    ``e2vlib.viz.new_plotter`` call it before every plotter they make (lessons never need
+    to); call it yourself before a ``pyvista.Plotter`` made by hand.
+    """
+    if (_OPENGL_WINDOW not in os.environ and sys.platform.startswith("linux")
+            and not os.environ.get("DISPLAY")):
+        window = _headless_window_class()
+        if window is not None:
+            os.environ[_OPENGL_WINDOW] = window
+    return os.environ.get(_OPENGL_WINDOW)
+
+
 MAX_OBJECT_SIZE_M, MIN_OBJECT_SIZE_M = 2.0, 0.01
 """Largest and smallest bounding-box side :func:`render_orbit` accepts (m): the orbit is
 built for objects normalised to the unit cube (the paper's 1 m^3)."""
@@ -324,6 +362,7 @@ def render_orbit(
 
     import pyvista as pv
 
+    headless_opengl_window()
     video = np.empty((n_out, res, res), dtype=np.float32)
     plotter = pv.Plotter(off_screen=True, notebook=False, window_size=(res, res),
                          lighting="none")

@@ -4,9 +4,15 @@ Matplotlib functions (``plot_*``, ``show_frame``, ``animate_frames``) give stati
 that work headless; each draws into an ``ax``/``fig`` it is given or makes one, and
 returns it. PyVista functions (``view_*``) build 3D scenes and return the plotter unshown:
 ``.show()`` is interactive in JupyterLab (trame) and an image under
-``PYVISTA_JUPYTER_BACKEND=static``; :func:`screenshot` renders one off screen.
+``PYVISTA_JUPYTER_BACKEND=static``; :func:`screenshot` renders one off screen. Lessons
+compose their own scenes from the same parts: :func:`new_plotter`, :func:`add_voxels`,
+:func:`aim_at_object`. :func:`interactive_figure` puts widgets on a matplotlib picture
+that also shows (at its current values) where no widget can run.
 :func:`export_reconstruction` writes a prediction for other tools.
 Colours: ON events red, OFF events blue throughout the lessons.
+
+This module draws what it is given; it never reads datasets or runs models (the README's
+pictures, which do both, live in :mod:`e2vlib.figures`).
 
 Introduced in notebooks/01_events.ipynb, notebooks/02_event_frames.ipynb and
 notebooks/08_visualizing_in_3d.ipynb.
@@ -18,8 +24,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
 
+from e2vlib import paper
 from e2vlib.events import check_sensor_size, validate
 from e2vlib.frames import accumulate
+from e2vlib.render import headless_opengl_window  # re-exported: lessons call viz.*
 
 ON_COLOR, OFF_COLOR = "#d62728", "#1f77b4"
 
@@ -207,7 +215,7 @@ def plot_voxels(grid: np.ndarray, ax=None, threshold: float = 0.5, color="#8fa8c
 
 
 def plot_reconstruction(probabilities: np.ndarray, voxels: np.ndarray | None = None,
-                        threshold: float = 0.3, title: str | None = None):
+                        threshold: float = paper.IOU_THRESHOLD, title: str | None = None):
     """Ground truth (if given) beside the prediction ``probabilities >= threshold``.
 
     The prediction is coloured by probability; the title reports IoU at ``threshold``
@@ -264,23 +272,50 @@ def voxel_mesh(grid: np.ndarray, threshold: float = 0.5):
 OBJECT_VIEW = (1.6, -2.4, 1.4)
 """Default viewing direction on the object: front-right and above (the object faces -y)."""
 TRUTH_COLOR, MESH_COLOR = "#8fa8c8", "#d2b48c"
+UNIT_CUBE_BOUNDS = (-0.5, 0.5, -0.5, 0.5, -0.5, 0.5)
+"""``(xmin, xmax, ymin, ymax, zmin, zmax)`` in metres of the cube the voxel grids cover."""
 
 
-def _new_plotter(off_screen: bool | None, window_size, shape=(1, 1)):
+
+def new_plotter(off_screen: bool | None = None, window_size=(500, 500), shape=(1, 1)):
+    """An empty ``pyvista.Plotter`` in the lessons' style: white, evenly lit, no borders.
+
+    ``window_size`` is ``(width, height)`` in pixels for the whole window, ``shape``
+    ``(rows, cols)`` of subplots (select one with ``plotter.subplot(row, col)``).
+    "Three lights" (key, fill and back light) keeps dense voxel views readable on every
+    side. ``off_screen=None`` lets pyvista decide (off screen in notebooks). On a machine
+    without a display the headless OpenGL window is chosen first
+    (:func:`headless_opengl_window`). Every ``view_*`` function starts from this plotter.
+    Introduced in notebooks/07_evaluation.ipynb.
+    """
     import pyvista as pv
 
-    # "three lights" (key, fill, back) keeps dense voxel views readable on every side.
+    headless_opengl_window()
     plotter = pv.Plotter(off_screen=off_screen, window_size=window_size, shape=shape,
                          border=False, lighting="three lights")
     plotter.set_background("white")
     return plotter
 
 
-def _aim_at_object(plotter, direction=OBJECT_VIEW, zoom: float = 1.0) -> None:
-    """Look at the origin from ``direction``, +z up, framing the unit cube."""
+def aim_at_object(plotter, direction=OBJECT_VIEW, zoom: float = 1.0) -> None:
+    """Point the active subplot's camera at the origin from ``direction``, +z up.
+
+    ``direction`` is any vector (only its direction counts; the default looks from the
+    front-right and above, the objects facing -y); the camera is then moved so the unit
+    cube :data:`UNIT_CUBE_BOUNDS` fills the view, and ``zoom > 1`` moves closer.
+    Introduced in notebooks/07_evaluation.ipynb.
+    """
+    direction = np.asarray(direction, dtype=np.float64).reshape(3)
+    if not np.all(np.isfinite(direction)) or not np.any(direction):
+        raise ValueError(f"direction must be a finite, non-zero 3-vector, got {direction}")
+    if np.linalg.norm(np.cross(direction, (0.0, 0.0, 1.0))) < 1e-9 * np.linalg.norm(direction):
+        raise ValueError(f"direction {direction} points along z, the camera's up direction; "
+                         "tilt it, e.g. (0, -1, 3) to look from above")
+    if not zoom > 0:
+        raise ValueError(f"zoom must be positive, got {zoom!r}")
     plotter.camera_position = [tuple(float(v) for v in direction), (0.0, 0.0, 0.0),
                                (0.0, 0.0, 1.0)]
-    plotter.reset_camera(bounds=(-0.5, 0.5, -0.5, 0.5, -0.5, 0.5))
+    plotter.reset_camera(bounds=UNIT_CUBE_BOUNDS)
     if zoom != 1.0:
         plotter.camera.zoom(zoom)
 
@@ -342,7 +377,7 @@ def view_events(events: np.ndarray, sensor_size: tuple[int, int], max_events: in
     cloud = event_cloud(events, (width, height), max_events=max_events)
     scale = float(cloud.field_data["t_scale"][0])
     span_ms = float(events["t"][-1] - events["t"][0]) / 1e3
-    plotter = _new_plotter(off_screen, window_size)
+    plotter = new_plotter(off_screen, window_size)
     for polarity, color, label in ((1, ON_COLOR, "ON (+1)"), (-1, OFF_COLOR, "OFF (-1)")):
         part = cloud.extract_points(cloud.point_data["polarity"] == polarity,
                                     adjacent_cells=False, include_cells=True)
@@ -366,10 +401,19 @@ def view_events(events: np.ndarray, sensor_size: tuple[int, int], max_events: in
     return plotter
 
 
-def _add_voxels(plotter, grid: np.ndarray, threshold: float, color=TRUTH_COLOR,
-                cmap: str | None = None, show_edges: bool = True, floor: bool = True,
-                scalar_bar: bool = True) -> int:
-    """Add the cubes of ``grid >= threshold`` to the current subplot; return their count."""
+def add_voxels(plotter, grid: np.ndarray, threshold: float = 0.5, color=TRUTH_COLOR,
+               cmap: str | None = None, show_edges: bool = True, floor: bool = True,
+               scalar_bar: bool = True) -> int:
+    """Add the cubes of ``grid >= threshold`` to the active subplot; return their count.
+
+    ``grid`` is ``(R, R, R)`` (indexed x, y, z over the unit cube, as :func:`voxel_mesh`).
+    The cubes take one ``color``, or with ``cmap`` (e.g. ``"viridis"``) are coloured by
+    value from 0 to 1, with a probability bar unless ``scalar_bar=False`` (leave it out
+    in a grid of small panels). ``floor`` draws a light 4 x 4 grid (0.25 m squares) on
+    the floor of the cube; an empty selection says so in the corner. The camera is left
+    alone: follow with :func:`aim_at_object`.
+    Introduced in notebooks/07_evaluation.ipynb.
+    """
     cubes = voxel_mesh(grid, threshold)
     if floor:
         plotter.add_mesh(_unit_cube_floor(), style="wireframe", color="#c8c8c8", line_width=1,
@@ -406,12 +450,12 @@ def view_voxels(grid: np.ndarray, threshold: float = 0.5, color=TRUTH_COLOR,
     grid = np.asarray(grid, dtype=np.float32)
     if cmap == "auto":
         cmap = None if _is_binary(grid) else "viridis"
-    plotter = _new_plotter(off_screen, window_size)
-    count = _add_voxels(plotter, grid, threshold, color=color, cmap=cmap,
-                        show_edges=show_edges)
+    plotter = new_plotter(off_screen, window_size)
+    count = add_voxels(plotter, grid, threshold, color=color, cmap=cmap,
+                       show_edges=show_edges)
     plotter.add_text(title if title is not None else f"{count} voxels >= {threshold:g}",
                      font_size=11, color="black")
-    _aim_at_object(plotter)
+    aim_at_object(plotter)
     return plotter
 
 
@@ -425,7 +469,7 @@ def _as_grid_list(grids, name: str) -> list[np.ndarray]:
     return out
 
 
-def view_reconstructions(truths, predictions, threshold: float = 0.3,
+def view_reconstructions(truths, predictions, threshold: float = paper.IOU_THRESHOLD,
                          titles=None, off_screen: bool | None = None, panel_size: int = 300,
                          link: bool = True):
     """Ground truth (top row) above prediction (bottom row), one column per object.
@@ -448,19 +492,19 @@ def view_reconstructions(truths, predictions, threshold: float = 0.3,
     titles = [None] * n if titles is None else list(titles)
     if len(titles) != n:
         raise ValueError(f"titles must have {n} entries (one per column), got {len(titles)}")
-    plotter = _new_plotter(off_screen, (panel_size * n, 2 * panel_size), shape=(2, n))
+    plotter = new_plotter(off_screen, (panel_size * n, 2 * panel_size), shape=(2, n))
     for col, (gt, pred, title) in enumerate(zip(truths, predictions, titles, strict=True)):
         plotter.subplot(0, col)
-        _add_voxels(plotter, gt, 0.5)
+        add_voxels(plotter, gt, 0.5)
         plotter.add_text(f"{title}\nground truth" if title else "ground truth", font_size=9,
                          color="black")
         plotter.subplot(1, col)
-        _add_voxels(plotter, pred, threshold, cmap="viridis", scalar_bar=False)
+        add_voxels(plotter, pred, threshold, cmap="viridis", scalar_bar=False)
         plotter.add_text(f"prediction\nIoU@{threshold:g} = {float(iou(pred, gt, threshold)):.2f}",
                          font_size=9, color="black")
-        _aim_at_object(plotter, zoom=1.15)
+        aim_at_object(plotter, zoom=1.15)
     plotter.subplot(0, 0)
-    _aim_at_object(plotter, zoom=1.15)
+    aim_at_object(plotter, zoom=1.15)
     if link:
         plotter.link_views()
     return plotter
@@ -481,15 +525,15 @@ def view_mesh_voxels(mesh, voxels: np.ndarray, mesh_opacity: float = 0.55,
         raise ValueError(f"mesh_opacity must be in (0, 1], got {mesh_opacity!r}")
     poly = to_polydata(mesh)
     shell = voxel_mesh(voxels, 0.5).extract_surface(algorithm=None)
-    plotter = _new_plotter(off_screen, window_size)
+    plotter = new_plotter(off_screen, window_size)
     plotter.add_mesh(_unit_cube_floor(), style="wireframe", color="#c8c8c8", line_width=1,
-                         lighting=False)
+                     lighting=False)
     plotter.add_mesh(poly, color=MESH_COLOR, opacity=mesh_opacity, smooth_shading=False)
     if shell.n_cells:
         plotter.add_mesh(shell, style="wireframe", color="#1f3b73", line_width=1)
     plotter.add_text(f"mesh and its {int(np.count_nonzero(np.asarray(voxels) >= 0.5))} voxels",
                      font_size=11, color="black")
-    _aim_at_object(plotter)
+    aim_at_object(plotter)
     return plotter
 
 
@@ -525,39 +569,47 @@ def camera_frustum(position, depth: float = 2.0, view_angle_deg: float | None = 
     return lines, base
 
 
-def view_orbit(mesh, n_frames: int = 120, fps: float = 240, every: int = 20, video=None,
-               frustum_depth: float = 2.0, off_screen: bool | None = None,
-               window_size=(1000, 750)):
+def view_orbit(mesh, n_video_frames: int = paper.N_VIDEO_FRAMES, fps: float = paper.VIDEO_FPS,
+               every: int = 20, video=None, frustum_depth: float = 2.0,
+               off_screen: bool | None = None, window_size=(1000, 750), *,
+               n_frames: int | None = None):
     """The data set-up in one scene: spiral camera path, camera frusta, and the object.
 
-    The path of :func:`e2vlib.render.orbit_cameras` is coloured by time (ms), a frustum
-    is drawn every ``every`` frames and at the last one, with a grey sight line to the
-    object; with ``video`` (``(n_frames, H, W)`` gray in [0, 1], e.g. from
+    The path of :func:`e2vlib.render.orbit_cameras` (``n_video_frames`` rendered video
+    frames at ``fps``; the paper's 120 at 240 fps) is coloured by time (ms), a frustum
+    is drawn every ``every`` video frames and at the last one, with a grey sight line to
+    the object; with ``video`` (``(n_video_frames, H, W)`` gray in [0, 1], e.g. from
     ``render_orbit``) each frustum's base shows the frame that camera rendered. The
-    object is drawn to scale at the origin. Returns the plotter (not shown).
-    Introduced in notebooks/03_simulating_events.ipynb.
+    object is drawn to scale at the origin. ``n_frames`` is the old name of
+    ``n_video_frames`` (still accepted, same meaning; not the model's event frames).
+    Returns the plotter (not shown). Introduced in notebooks/03_simulating_events.ipynb.
     """
     import pyvista as pv
 
     from e2vlib.render import orbit_cameras, to_polydata
 
-    cams = orbit_cameras(n_frames)
+    if n_frames is not None:
+        if n_video_frames not in (paper.N_VIDEO_FRAMES, n_frames):
+            raise TypeError("give n_video_frames or its old name n_frames, not both")
+        n_video_frames = n_frames
+    cams = orbit_cameras(n_video_frames)
+    n = len(cams)
     if not isinstance(every, (int, np.integer)) or isinstance(every, bool) or every < 1:
         raise ValueError(f"every must be a positive integer, got {every!r}")
     if video is not None:
         video = np.asarray(video)
-        if video.ndim != 3 or len(video) != n_frames:
-            raise ValueError(f"video must be ({n_frames}, H, W) like render_orbit's output, "
+        if video.ndim != 3 or len(video) != n:
+            raise ValueError(f"video must be ({n}, H, W) like render_orbit's output, "
                              f"got shape {video.shape}")
-    t_ms = np.arange(n_frames) * 1e3 / float(fps)
+    t_ms = np.arange(n) * 1e3 / float(fps)
     path = pv.lines_from_points(cams)
     path["time [ms]"] = t_ms
-    plotter = _new_plotter(off_screen, window_size)
+    plotter = new_plotter(off_screen, window_size)
     plotter.add_mesh(path, scalars="time [ms]", cmap="viridis", line_width=5,
                      scalar_bar_args={"position_x": 0.3, "position_y": 0.86, "width": 0.4,
                                       "color": "black", "fmt": "%.0f", "n_labels": 6})
     plotter.add_mesh(to_polydata(mesh), color=MESH_COLOR)
-    shown = sorted({*range(0, n_frames, every), n_frames - 1})
+    shown = sorted({*range(0, n, every), n - 1})
     for i in shown:
         lines, base = camera_frustum(cams[i], depth=frustum_depth)
         plotter.add_mesh(lines, color="black", line_width=1.5)
@@ -568,7 +620,7 @@ def view_orbit(mesh, n_frames: int = 120, fps: float = 240, every: int = 20, vid
         else:
             plotter.add_mesh(base, color="lightgray", opacity=0.5, lighting=False)
         plotter.add_mesh(pv.Line(cams[i], (0.0, 0.0, 0.0)), color="gray", opacity=0.5)
-    mid = n_frames // 2
+    mid = n // 2
     radius = float(np.hypot(*cams[mid, :2]))
     plotter.add_point_labels(cams[[0, mid, -1]], ["start, 0 ms", f"r = {radius:.1f} m",
                                                    f"end, {t_ms[-1]:.0f} ms"],
@@ -611,10 +663,183 @@ def screenshot(plotter, path=None, scale: int | None = None) -> np.ndarray:
     return image
 
 
+# --- widgets that still show a picture without a widget frontend ----------------------------
+#
+# An ipywidgets ``interact``/``interactive_output`` draws into an Output widget, whose
+# content only a live widget frontend shows: an executed notebook read without the kernel
+# (nbmake, a notebook viewer) shows "interactive(children=...)" instead of the picture.
+# :func:`interactive_figure` shows the picture as an ordinary PNG output below the widgets
+# and replaces that output (a display id) whenever a control moves, which JupyterLab and
+# the classic notebook both apply.
+
+
+def _png_of(figure) -> bytes:
+    import io
+
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", bbox_inches="tight")
+    return buffer.getvalue()
+
+
+def _stack_pngs(pngs: list[bytes]) -> bytes:
+    """One PNG of several, stacked top to bottom on white (left-aligned)."""
+    import io
+
+    from PIL import Image
+
+    images = [Image.open(io.BytesIO(png)).convert("RGB") for png in pngs]
+    out = Image.new("RGB", (max(i.width for i in images), sum(i.height for i in images)),
+                    "white")
+    y = 0
+    for image in images:
+        out.paste(image, (0, y))
+        y += image.height
+    buffer = io.BytesIO()
+    out.save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def _render_call(function, values: dict) -> tuple[str, bytes | None]:
+    """Run ``function(**values)`` and return ``(printed text, PNG bytes or None)``.
+
+    Whatever the call prints becomes the text; the picture is what it draws with
+    matplotlib: the figures it shows with ``plt.show()`` in a notebook, or else those it
+    leaves open and a ``Figure`` it returns (several are stacked top to bottom). The
+    figures it made are closed. Exceptions propagate.
+    """
+    import base64
+
+    from IPython.utils.capture import capture_output
+    from matplotlib.figure import Figure
+
+    before = set(plt.get_fignums())
+    try:
+        with capture_output(stdout=True, stderr=False, display=True) as captured:
+            result = function(**values)
+        pngs = []
+        for output in captured.outputs:  # figures shown inline by plt.show()
+            data = output.data.get("image/png")
+            if data is not None:
+                pngs.append(base64.b64decode(data) if isinstance(data, str) else bytes(data))
+        if not pngs:  # nothing shown inline: take what it drew and left open or returned
+            figures = [plt.figure(n) for n in plt.get_fignums() if n not in before]
+            if isinstance(result, Figure) and result not in figures:
+                figures.append(result)
+            pngs = [_png_of(figure) for figure in figures]
+    finally:
+        for n in set(plt.get_fignums()) - before:
+            plt.close(n)
+    png = None if not pngs else pngs[0] if len(pngs) == 1 else _stack_pngs(pngs)
+    return captured.stdout.rstrip("\n"), png
+
+
+_INTERACTIVE_FIGURE = None
+
+
+def _interactive_figure_class():
+    """The widget class, made on first use so importing viz does not import ipywidgets."""
+    global _INTERACTIVE_FIGURE
+    if _INTERACTIVE_FIGURE is not None:
+        return _INTERACTIVE_FIGURE
+    import base64
+    import traceback
+    import uuid
+
+    import ipywidgets as widgets
+
+    class InteractiveFigure(widgets.VBox):
+        """Rows of controls, then an Output widget for errors; the text and picture of
+        the current values are separate outputs below it (see :func:`interactive_figure`)."""
+
+        def __init__(self, function, controls: dict, rows: list[list[str]]):
+            self.function, self.controls = function, controls
+            self.errors = widgets.Output()
+            boxes = [widgets.HBox([controls[name] for name in row]) for row in rows]
+            super().__init__([*boxes, self.errors])
+            self._display_ids = {"text": uuid.uuid4().hex, "image": uuid.uuid4().hex}
+            self._shown: set[str] = set()  # the outputs displayed so far
+            self._drawn = self.values
+            self.text, self.png = _render_call(function, self._drawn)  # the default state
+            for control in controls.values():
+                control.observe(self._redraw, names="value")
+
+        @property
+        def values(self) -> dict:
+            """``{name: value}`` of the controls now."""
+            return {name: control.value for name, control in self.controls.items()}
+
+        def _redraw(self, _change=None) -> None:
+            values = self.values
+            if values == self._drawn:  # e.g. a control reset by another one's callback
+                return
+            self._drawn = values
+            try:
+                self.text, self.png = _render_call(self.function, values)
+                self.errors.clear_output()
+            except Exception as err:  # say what went wrong and keep the last picture
+                self.text = f"{type(err).__name__}: {err}"
+                with self.errors:
+                    traceback.print_exc()
+            if self._shown:
+                from IPython.display import update_display
+
+                for part in self._shown:
+                    update_display(self._bundle(part), display_id=self._display_ids[part],
+                                   raw=True)
+
+        def _bundle(self, part: str) -> dict:
+            if part == "text":
+                return {"text/plain": self.text}
+            if self.png is None:
+                return {"text/plain": "(nothing drawn)"}
+            return {"image/png": base64.b64encode(self.png).decode("ascii"),
+                    "text/plain": f"<picture at {self._drawn}>"}
+
+        def _ipython_display_(self, **kwargs) -> None:
+            from IPython.display import display
+
+            bundle = self._repr_mimebundle_(**kwargs)
+            bundle["text/plain"] = (f"[controls {', '.join(self.controls)}: move them in "
+                                    "JupyterLab; the picture below follows them]")
+            display(bundle, raw=True)
+            # text only for a function that prints (no empty output for one that only draws)
+            for part in ("text", "image") if self.text else ("image",):
+                display(self._bundle(part), raw=True, display_id=self._display_ids[part])
+                self._shown.add(part)
+
+    _INTERACTIVE_FIGURE = InteractiveFigure
+    return InteractiveFigure
+
+
+def interactive_figure(function, /, *, rows=None, **controls):
+    """Widgets around a matplotlib picture that also shows where widgets cannot run.
+
+    ``controls`` maps each keyword of ``function`` to an ipywidgets control (a slider, a
+    dropdown); ``function(**values)`` prints text and draws one matplotlib figure (shown
+    with ``plt.show()``, left open or returned). The default values are drawn at once
+    (errors raise here). Displayed (the last expression of a cell), it shows the controls
+    and, below them, the printed text and the picture as ordinary outputs: an executed
+    notebook read without its kernel (nbmake, a notebook viewer) still shows the default
+    state, and in JupyterLab each move of a control redraws and replaces them. ``rows``
+    lists the control names per row (default: one per row). Returns an
+    ``ipywidgets.VBox`` with one ``HBox`` per row and last an ``Output`` that shows the
+    traceback of a redraw that failed; ``.values``, ``.text`` and ``.png`` (bytes) hold the
+    state drawn last. Introduced in notebooks/02_event_frames.ipynb.
+    """
+    if not controls:
+        raise ValueError("give at least one control, e.g. dt_ms=ipywidgets.FloatSlider()")
+    rows = [[name] for name in controls] if rows is None else [list(row) for row in rows]
+    placed = [name for row in rows for name in row]
+    if sorted(placed) != sorted(controls):
+        raise ValueError(f"rows must place every control exactly once: rows name {placed}, "
+                         f"controls are {list(controls)}")
+    return _interactive_figure_class()(function, dict(controls), rows)
+
+
 # --- exporting a reconstruction for other tools ---------------------------------------------
 
 
-def probability_mesh(probabilities: np.ndarray, threshold: float = 0.3):
+def probability_mesh(probabilities: np.ndarray, threshold: float = paper.IOU_THRESHOLD):
     """A closed triangle mesh of the surface ``probabilities == threshold`` (marching cubes).
 
     The grid ``(R, R, R)`` (indexed x, y, z over ``[-0.5, 0.5]^3``, value of voxel ``i``
@@ -649,7 +874,8 @@ EXPORT_SUFFIXES = {"png": ".png", "vti": ".vti", "vtu": ".vtu", "vtp": ".vtp",
 """What :func:`export_reconstruction` writes, by format name."""
 
 
-def export_reconstruction(probabilities: np.ndarray, out_dir, threshold: float = 0.3,
+def export_reconstruction(probabilities: np.ndarray, out_dir,
+                          threshold: float = paper.IOU_THRESHOLD,
                           name: str = "reconstruction", formats=tuple(EXPORT_SUFFIXES)):
     """Write a predicted grid ``(R, R, R)`` in formats other tools read; return the paths.
 
@@ -715,95 +941,3 @@ def export_reconstruction(probabilities: np.ndarray, out_dir, threshold: float =
                     surface.export(tmp, file_type=fmt)
     return paths
 
-
-# --- the README's pictures -------------------------------------------------------------------
-
-README_CATEGORIES = ("airplane", "car", "chair", "lamp", "table")
-"""Columns of the README's ground-truth-beside-reconstruction picture."""
-
-
-def render_readme_figures(out_dir, data_root, checkpoint, categories=README_CATEGORIES,
-                          events_category: str = "chair") -> dict:
-    """Render the README's pictures into ``out_dir``; return ``{name: Path}``.
-
-    * ``events_space_time.png``: the raw events of the ``events_category`` sample whose
-      events ``data_root/events/`` keeps, in space-time (:func:`view_events`);
-    * ``event_frames.png``: eight of its 100 binary 5 ms frames (the model's input before
-      max-pooling);
-    * ``reconstruction.png``: ground truth above the ``checkpoint``'s prediction for one
-      test sample per category, the one with the median IoU@0.3 of its category (a
-      typical result, not the best), in the layout of the paper's Figure 3.
-
-    Introduced in notebooks/08_visualizing_in_3d.ipynb (``python -m e2vlib figures``).
-    """
-    from pathlib import Path
-
-    import torch
-
-    from e2vlib.data import E2VDataset, events_to_frames
-    from e2vlib.explore import category_indices, raw_events_path
-    from e2vlib.io import atomic_path, load_events
-    from e2vlib.metrics import iou
-    from e2vlib.model import load_checkpoint
-    from e2vlib.train import predict
-
-    out = Path(out_dir)
-    checkpoint = Path(checkpoint)
-    if not checkpoint.is_file():
-        raise FileNotFoundError(
-            f"checkpoint {checkpoint} not found: the reconstruction picture needs a trained "
-            f"model; train one (python -m e2vlib train --data {data_root} --out DIR) and pass "
-            "--checkpoint DIR/best.pt")
-    test = E2VDataset(data_root, "test")
-    groups = category_indices(test)
-    missing = [c for c in (*categories, events_category) if c not in groups]
-    if missing:
-        raise ValueError(f"{data_root} has no test samples of {missing}; choose from "
-                         f"{', '.join(groups)}")
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {}
-
-    with_events = [i for i in groups[events_category] if raw_events_path(test, i) is not None]
-    if not with_events:
-        raise ValueError(f"{data_root}/events/ holds no raw events of a {events_category} test "
-                         "sample; pick another events_category")
-    events, sensor_size = load_events(raw_events_path(test, with_events[0]))
-    plotter = view_events(events, sensor_size, max_events=40_000, point_size=1.5,
-                          off_screen=True, window_size=(900, 520))
-    try:
-        paths["events_space_time"] = out / "events_space_time.png"
-        screenshot(plotter, paths["events_space_time"])
-    finally:
-        plotter.close()
-
-    frames = events_to_frames(events, sensor_size, sensor_size[0])  # 100 x 5 ms, full size
-    shown = np.linspace(0, len(frames) - 1, 8).round().astype(int)
-    side = sensor_size[0]
-    crop = slice(side // 8, side - side // 8)  # the object sits in the middle of the image
-    fig = plot_frame_grid(frames[:, crop, crop], indices=shown, n_cols=8, dt_us=5000,
-                          panel_size=1.5)
-    paths["event_frames"] = out / "event_frames.png"
-    with atomic_path(paths["event_frames"]) as tmp:
-        fig.savefig(tmp, dpi=90, format="png")
-    plt.close(fig)
-
-    model = load_checkpoint(checkpoint)
-    truths, preds, titles = [], [], []
-    for category in categories:
-        members = groups[category]
-        stack = [test.arrays(i) for i in members]
-        frames_in = torch.from_numpy(np.stack([f for f, _ in stack]))
-        probs = predict(model, frames_in, "cpu").numpy()
-        scores = [float(iou(p, v)) for p, (_, v) in zip(probs, stack, strict=True)]
-        pick = int(np.argsort(scores)[len(scores) // 2])  # the median sample
-        truths.append(stack[pick][1])
-        preds.append(probs[pick])
-        titles.append(category)
-    plotter = view_reconstructions(truths, preds, threshold=0.3, titles=titles,
-                                   off_screen=True, panel_size=260)
-    try:
-        paths["reconstruction"] = out / "reconstruction.png"
-        screenshot(plotter, paths["reconstruction"])
-    finally:
-        plotter.close()
-    return paths

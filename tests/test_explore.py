@@ -52,10 +52,18 @@ def dataset(tmp_path):
 
 
 def test_category_indices_and_raw_events(dataset):
-    assert explore.category_indices(dataset) == {"car": [0, 1, 2], "lamp": [3, 4]}
-    found = [explore.raw_events_path(dataset, i) for i in range(len(dataset))]
+    assert dataset.category_indices() == {"car": [0, 1, 2], "lamp": [3, 4]}
+    found = [dataset.raw_events_path(i) for i in range(len(dataset))]
     assert [p is not None for p in found] == [False, True, False, False, False]
     assert found[1].name == "car_0001.npz"
+    assert dataset.ids == ["car_0000", "car_0001", "car_0002", "lamp_0000", "lamp_0001"]
+    assert [dataset[i]["id"] for i in range(len(dataset))] == dataset.ids
+    with pytest.raises(IndexError, match="0..4"):
+        dataset.raw_events_path(5)
+    lamps = E2VDataset(dataset.root, "test", categories=["lamp"])
+    assert lamps.ids == ["lamp_0000", "lamp_0001"] and lamps.category_indices() == {
+        "lamp": [0, 1]}
+    assert lamps.raw_events_path(0) is None
 
 
 def test_view_with_raw_events_reaccumulates_at_dt(dataset):
@@ -165,3 +173,18 @@ def test_dataset_explorer_wires_the_widgets(dataset):
     assert index.max == 1 and index.value == 0
     assert isinstance(box.children[-1], widgets.Output)
     plt.close("all")
+
+
+def test_dataset_explorer_draws_its_state_as_a_picture(dataset):
+    """The picture that a notebook run without a widget frontend still shows."""
+    pytest.importorskip("ipywidgets")
+    box = explore.dataset_explorer(dataset)  # no model
+    assert box.values == {"category": "car", "index": 0, "threshold": 0.3, "dt_ms": 5.0}
+    assert box.text.startswith("car_0000: no raw events") and box.text.endswith("no model")
+    assert box.png.startswith(b"\x89PNG")
+    first = box.png
+    box.controls["index"].value = 1  # car_0001 kept its 500 raw events
+    assert box.text.startswith("car_0001: 500 raw events") and box.png != first
+    box.controls["category"].value = "lamp"  # index goes back to 0 first: one redraw
+    assert box.values["index"] == 0 and box.text.startswith("lamp_0000")
+    assert plt.get_fignums() == []  # the figures drawn are closed
