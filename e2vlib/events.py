@@ -5,6 +5,11 @@ integer **microseconds** (int64) and polarity ``p`` in ``{-1, +1}`` (int8). A st
 1-D structured array of :data:`EVENT_DTYPE` sorted by ``t``; the sensor size is
 ``(width, height)``.
 
+Times never wrap around: :func:`make_events` refuses times outside :data:`TIME_RANGE`,
+:func:`times_to_us` converts seconds/milliseconds/nanoseconds to microseconds exactly (in
+integers) or in float64, and :func:`add_time_offset` adds an offset with an overflow check;
+readers (:mod:`e2vlib.io`) use them for every file format.
+
 Introduced in notebooks/01_events.ipynb.
 """
 
@@ -44,25 +49,135 @@ def _as_polarity(p: np.ndarray) -> np.ndarray:
     )
 
 
+INT64_MIN, INT64_MAX = int(np.iinfo(np.int64).min), int(np.iinfo(np.int64).max)
+"""Range of event times: int64 microseconds, about +-292,000 years around 0."""
+
+TIME_RANGE = f"the int64 microsecond range [{INT64_MIN}, {INT64_MAX}] (about +-292,000 years)"
+"""How error messages name the range of :data:`EVENT_DTYPE` times."""
+
+_TIME_FIX = "store times relative to the start of the recording"
+
+
 def _check_int_range(name: str, a: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Check that ``a`` holds whole numbers in ``[lo, hi]``; return it (not yet cast).
+
+    Floats are compared against ``hi + 1`` (exclusive) so that a float that rounds to
+    ``2**63`` is caught before a cast to int64 could wrap it around.
+    """
     a = np.asarray(a)
     if a.size and np.issubdtype(a.dtype, np.floating):
         if not np.all(np.isfinite(a)):
             raise EventError(f"{name} has {int(np.sum(~np.isfinite(a)))} NaN/inf values")
         if not np.all(a == np.round(a)):
             raise EventError(f"{name} must hold whole numbers; round or convert units first")
+        bad = (a < lo) | (a >= hi + 1)  # hi + 1 is exact in float64 for int64 and uint16
     elif a.size and not np.issubdtype(a.dtype, np.integer):
         raise EventError(f"{name} must be integer, got dtype {a.dtype}")
-    if a.size and (a.min() < lo or a.max() > hi):
-        n_bad = int(np.sum((a < lo) | (a > hi)))
-        raise EventError(f"{name}: {n_bad} values outside [{lo}, {hi}]")
+    else:
+        bad = (a < lo) | (a > hi) if a.size else np.zeros(0, bool)
+    if bad.any():
+        first = a[np.flatnonzero(bad)[0]].item()
+        what = TIME_RANGE if name == "t" else f"[{lo}, {hi}]"
+        fix = f"; {_TIME_FIX}" if name == "t" else ""
+        unit = " us" if name == "t" else ""
+        raise EventError(f"{name}: {int(bad.sum())} values outside {what} (first: "
+                         f"{first!r}{unit}){fix}")
     return a
+
+
+_US_PER = {"s": 10**6, "ms": 10**3, "us": 1}
+TIME_UNITS = ("s", "ms", "us", "ns")
+"""Time units :func:`times_to_us` converts from."""
+
+
+def times_to_us(t: ArrayLike, unit: str = "us", name: str = "t") -> np.ndarray:
+    """Times in ``unit`` (``"s"``, ``"ms"``, ``"us"``, ``"ns"``) as int64 microseconds.
+
+    Integers are converted exactly (``ns`` rounded to the nearest microsecond, halves to
+    even); floats are scaled in float64 and rounded (``np.rint``). A result outside
+    :data:`TIME_RANGE` raises :class:`EventError` naming the range instead of wrapping
+    around, as do NaN/inf and non-numeric times. ``name`` names the times in messages.
+
+    Examples
+    --------
+    >>> times_to_us([0.5, 1.25], "s").tolist()
+    [500000, 1250000]
+    >>> times_to_us(np.array([1499, 1500, 2500], np.int64), "ns").tolist()
+    [1, 2, 2]
+    >>> times_to_us([2.0**63], "us")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.events.EventError: t: 1 values outside the int64 microsecond range [...] ...
+    """
+    if unit not in TIME_UNITS:
+        raise ValueError(f"unknown time unit {unit!r}; expected one of {TIME_UNITS}")
+    a = np.atleast_1d(np.asarray(t))
+    if a.dtype == bool or not np.issubdtype(a.dtype, np.number) or np.iscomplexobj(a):
+        raise EventError(f"{name} must be numeric times, got dtype {a.dtype}")
+    if a.size == 0:
+        return a.astype(np.int64)
+    if np.issubdtype(a.dtype, np.floating):
+        a = a.astype(np.float64)
+        if not np.all(np.isfinite(a)):
+            raise EventError(f"{name} has {int(np.sum(~np.isfinite(a)))} NaN/inf values")
+        us = np.rint(a / 1000.0 if unit == "ns" else a * _US_PER[unit])
+        bad = (us < INT64_MIN) | (us >= INT64_MAX + 1)  # both bounds exact in float64
+        if bad.any():
+            _out_of_range(name, a, bad, unit)
+        return us.astype(np.int64)
+    if unit == "ns":
+        if a.dtype == np.uint64:
+            q, r = np.divmod(a, np.uint64(1000))
+            q, r = q.astype(np.int64), r.astype(np.int64)  # q < 2**64 / 1000 fits
+        else:
+            q, r = np.divmod(a.astype(np.int64), 1000)
+        return q + (r > 500) + ((r == 500) & (q % 2 == 1))
+    factor = _US_PER[unit]
+    bad = (a > INT64_MAX // factor) | (a < -(-INT64_MIN // factor))
+    if bad.any():
+        _out_of_range(name, a, bad, unit)
+    return a.astype(np.int64) * factor
+
+
+def _out_of_range(name: str, a: np.ndarray, bad: np.ndarray, unit: str) -> None:
+    first = a[np.flatnonzero(bad)[0]].item()
+    raise EventError(
+        f"{name}: {int(bad.sum())} values outside {TIME_RANGE} (first: {first!r} {unit}); "
+        f"{_TIME_FIX}")
+
+
+def add_time_offset(t_us: np.ndarray, offset_us: int, name: str = "t") -> np.ndarray:
+    """``t_us + offset_us`` (int64 microseconds), refusing results outside :data:`TIME_RANGE`.
+
+    Examples
+    --------
+    >>> add_time_offset(np.array([0, 10]), 1_000_000).tolist()
+    [1000000, 1000010]
+    >>> add_time_offset(np.array([0, 10]), 2**63 - 1)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.events.EventError: t + offset 9223372036854775807 us: 1 values outside the int64 ...
+    """
+    offset = int(offset_us)
+    t = np.asarray(t_us, dtype=np.int64)
+    if not INT64_MIN <= offset <= INT64_MAX:
+        raise EventError(f"time offset {offset} us lies outside {TIME_RANGE}; {_TIME_FIX}")
+    if offset == 0 or t.size == 0:
+        return t.copy()
+    bad = t > INT64_MAX - offset if offset > 0 else t < INT64_MIN - offset
+    if bad.any():
+        first = t[np.flatnonzero(bad)[0]].item()
+        raise EventError(
+            f"{name} + offset {offset} us: {int(bad.sum())} values outside {TIME_RANGE} "
+            f"(first: {first} us + offset); {_TIME_FIX}")
+    return t + offset
 
 
 def make_events(x: ArrayLike, y: ArrayLike, t: ArrayLike, p: ArrayLike) -> np.ndarray:
     """Build an event array of :data:`EVENT_DTYPE` from four equal-length columns.
 
-    ``t`` is in microseconds (integers, or floats holding whole numbers); ``p`` may be
+    ``t`` is in microseconds (integers, or floats holding whole numbers) within
+    :data:`TIME_RANGE` (values outside raise instead of wrapping around); ``p`` may be
     -1/+1, 0/1 or bool. The events are **not** reordered: call :func:`validate` or sort
     by ``t`` yourself. Raises :class:`EventError` on mismatched lengths or bad values.
 
@@ -86,7 +201,7 @@ def make_events(x: ArrayLike, y: ArrayLike, t: ArrayLike, p: ArrayLike) -> np.nd
     out = np.empty(len(x_), dtype=EVENT_DTYPE)
     out["x"] = _check_int_range("x", x_, 0, np.iinfo(np.uint16).max)
     out["y"] = _check_int_range("y", y_, 0, np.iinfo(np.uint16).max)
-    out["t"] = _check_int_range("t", t_, np.iinfo(np.int64).min, np.iinfo(np.int64).max)
+    out["t"] = _check_int_range("t", t_, INT64_MIN, INT64_MAX)
     out["p"] = _as_polarity(p_)
     return out
 
@@ -170,10 +285,10 @@ def validate(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
     >>> ev = make_events(x=[0, 5], y=[0, 0], t=[0, 1], p=[1, 1])
     >>> len(validate(ev, (8, 4)))
     2
-    >>> validate(ev, (4, 4))
+    >>> validate(ev, (4, 4))  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.events.EventError: 1 of 2 events lie outside the 4x4 sensor (x must be < width, y < height); check sensor_size=(width, height) or crop the events
+    e2vlib.events.EventError: 1 of 2 events lie outside the 4x4 sensor (x must be < width, ...
     """
     for _ in iter_checked_chunks(events, sensor_size):
         pass
@@ -184,10 +299,15 @@ def check_sensor_size(sensor_size: tuple[int, int]) -> tuple[int, int]:
     """Return ``(width, height)`` as ints, raising :class:`EventError` if malformed."""
     try:
         width, height = (int(v) for v in sensor_size)
-    except (TypeError, ValueError) as err:
+        whole = all(float(v) == int(v) and not isinstance(v, (bool, np.bool_))
+                    for v in sensor_size)
+    except (TypeError, ValueError, OverflowError) as err:
         raise EventError(
             f"sensor_size must be (width, height), got {sensor_size!r}"
         ) from err
+    if not whole:
+        raise EventError(f"sensor_size must be whole pixels (width, height), got "
+                         f"{tuple(sensor_size)!r}")
     if width <= 0 or height <= 0:
         raise EventError(f"sensor_size must be positive (width, height), got {sensor_size!r}")
     return width, height

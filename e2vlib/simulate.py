@@ -21,6 +21,12 @@ Exact rules implemented here (they make the output reproducible to the microseco
 * output order: by time; ties by the frame pair that made them, then by pixel index
   ``y * W + x``, then by ``k``.
 
+Memory is bounded: before the events of a frame pair are made, their number is known
+exactly (the sum of ``K``), and a run that would exceed ``max_events`` (default
+:data:`MAX_EVENTS`) raises :class:`TooManyEventsError` with an upper bound for the whole
+video (:func:`event_count_bound`) instead of allocating. Frame times must lie within
+:data:`MAX_ABS_TIME_US` so that event times are exact in float64.
+
 Introduced in notebooks/03_simulating_events.ipynb.
 """
 
@@ -36,6 +42,24 @@ from e2vlib.events import EVENT_DTYPE
 
 MIN_CONTRAST = 0.01
 """Per-pixel thresholds drawn with ``contrast_sigma`` are clipped from below at this value."""
+
+MAX_EVENTS: int = 50_000_000
+"""Most events :func:`simulate_events` makes unless ``max_events=`` says otherwise. Each
+event takes about 30 bytes while the stream is assembled (1.5 GB at this limit), and the
+frame pair being simulated about 80 bytes per event of its own; a video needing more
+(usually a contrast threshold far below the usual 0.1-0.5) raises
+:class:`TooManyEventsError`."""
+
+MAX_ABS_TIME_US: int = 2**53
+"""Frame times must lie in ``[-MAX_ABS_TIME_US, MAX_ABS_TIME_US]`` (about 285 years): there
+float64, in which event times are interpolated, holds every microsecond exactly."""
+
+
+class TooManyEventsError(ValueError):
+    """The simulation would make more events than its ``max_events`` limit allows.
+
+    Introduced in notebooks/03_simulating_events.ipynb.
+    """
 
 _NEVER = np.iinfo(np.int64).min // 2  # "last event time" of a pixel that has not fired yet
 
@@ -85,12 +109,20 @@ def _check_times(t_us: ArrayLike, n: int) -> np.ndarray:
     if np.issubdtype(t.dtype, np.floating):
         if not np.all(np.isfinite(t)) or not np.all(t == np.round(t)):
             raise ValueError("t_us must hold whole microseconds (finite integers)")
-    elif not np.issubdtype(t.dtype, np.integer):
+    elif not np.issubdtype(t.dtype, np.integer) or t.dtype == bool:
         raise ValueError(f"t_us must be integer microseconds, got dtype {t.dtype}")
+    # Checked before the cast to int64, so that no time can wrap around.
+    outside = (t < -MAX_ABS_TIME_US) | (t > MAX_ABS_TIME_US)
+    if np.any(outside):
+        k = int(np.flatnonzero(outside)[0])
+        raise ValueError(
+            f"t_us must lie within +-{MAX_ABS_TIME_US} us (about 285 years, "
+            f"simulate.MAX_ABS_TIME_US), where event times are exact; frame {k} is at "
+            f"{t[k].item()} us. Subtract the first frame's time (t_us - t_us[0])")
     t = t.astype(np.int64)
-    steps = np.diff(t)
-    if np.any(steps <= 0):
-        k = int(np.flatnonzero(steps <= 0)[0])
+    later = t[1:] > t[:-1]
+    if not np.all(later):
+        k = int(np.flatnonzero(~later)[0])
         raise ValueError(
             f"t_us must be strictly increasing; frame {k + 1} ({t[k + 1]} us) is not after "
             f"frame {k} ({t[k]} us)"
@@ -141,6 +173,7 @@ def simulate_events(
     refractory_us: float = 0,
     log_eps: float = 1e-3,
     seed: int | None = None,
+    max_events: int = MAX_EVENTS,
 ) -> np.ndarray:
     """Events (:data:`~e2vlib.events.EVENT_DTYPE`, sorted by ``t``) that ``video`` would make.
 
@@ -153,6 +186,11 @@ def simulate_events(
     ``log_eps`` keeps ``log(I + log_eps)`` finite for black pixels. The exact rules (event
     times, rounding, tie order) are in this module's docstring.
 
+    ``max_events`` (default :data:`MAX_EVENTS`) bounds the memory: each frame pair's events
+    are counted before they are made, and a run that would go past the limit raises
+    :class:`TooManyEventsError` (a ValueError) naming an upper bound for the whole video;
+    raise the contrast thresholds, or ``max_events`` if the memory is there.
+
     Work per frame pair is one comparison of the two frames plus arithmetic on the pixels
     whose intensity changed and on the events they make; nothing loops over pixels.
 
@@ -163,6 +201,9 @@ def simulate_events(
     t = _check_times(t_us, n)
     eps = _check_positive("log_eps", log_eps)
     refractory = _check_positive("refractory_us", refractory_us, allow_zero=True)
+    if isinstance(max_events, bool) or not isinstance(max_events, (int, np.integer)) \
+            or max_events < 0:
+        raise ValueError(f"max_events must be a whole number >= 0, got {max_events!r}")
     c_on, c_off = draw_thresholds((height, width), contrast_pos, contrast_neg,
                                   contrast_sigma, seed)
     c_on, c_off = c_on.ravel(), c_off.ravel()
@@ -182,6 +223,9 @@ def simulate_events(
     reference = level_now.copy()
     last_t = np.full(height * width, _NEVER, dtype=np.int64)
     chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    n_made = 0  # events kept so far
+    # (time - t_j) * pixels + pixel fits int64 for every pair: one sort key, else lexsort
+    single_key = (int(np.max(np.diff(t))) + 1) * height * width < 2**62
 
     for j in range(n - 1):
         changed = np.flatnonzero(frames[j] != frames[j + 1])
@@ -198,6 +242,18 @@ def simulate_events(
         fire = np.flatnonzero(count > 0)
         if fire.size == 0:
             continue
+        n_pair = float(count[fire].sum())  # exact below 2**53; checked before any cast
+        if n_made + n_pair > max_events:
+            bound = event_count_bound(v, c_on.reshape(height, width),
+                                      c_off.reshape(height, width), eps)
+            raise TooManyEventsError(
+                f"the simulation would make more than max_events={max_events:,} events "
+                f"({n_made + n_pair:,.0f} in the first {j + 1} of {n - 1} frame pairs; up to "
+                f"{bound:,.0f} for the whole video, simulate.event_count_bound), about 30 "
+                "bytes each. Raise the "
+                f"contrast thresholds (contrast_pos={contrast_pos:g}, "
+                f"contrast_neg={contrast_neg:g}; the usual range is 0.1-0.5), use a shorter "
+                "or smaller video, or pass a larger max_events if the memory is there")
         pix = changed[fire]
         k_max = count[fire].astype(np.int64)
         signed_c = np.where(up[fire], contrast[fire], -contrast[fire])
@@ -222,10 +278,59 @@ def simulate_events(
         # pixel-major rows -> order by (time, pixel). Rows with equal keys are the same
         # pixel at the same microsecond with the same polarity: identical events, so an
         # unstable (SIMD) sort still gives a unique result.
-        order = np.argsort((times - t[j]) * (height * width) + pix_e)
+        if single_key:
+            order = np.argsort((times - t[j]) * (height * width) + pix_e)
+        else:
+            order = np.lexsort((pix_e, times))
         chunks.append((times[order], pix_e[order], polarity[order]))
+        n_made += len(times)
 
     return _assemble(chunks, width)
+
+
+def event_count_bound(
+    video: ArrayLike,
+    contrast_pos: float | np.ndarray = paper.CONTRAST_THRESHOLD,
+    contrast_neg: float | np.ndarray = paper.CONTRAST_THRESHOLD,
+    log_eps: float = 1e-3,
+) -> float:
+    """An upper bound on the number of events :func:`simulate_events` makes from ``video``.
+
+    Per pixel, the reference level ends every frame pair within one threshold ``C`` of the
+    log intensity, so the events of a pixel never exceed the total variation of its log
+    intensity, ``sum_j |L_{j+1} - L_j|``, divided by its smaller threshold. The bound is
+    that sum over the pixels (float; up to rounding). The thresholds may be numbers or
+    per-pixel ``(H, W)`` arrays (:func:`draw_thresholds`). Reads the video one frame pair
+    at a time, so it needs no more memory than a frame.
+
+    Examples
+    --------
+    >>> video = np.array([0.1, 0.9, 0.1]).reshape(3, 1, 1)   # up, then down again
+    >>> round(event_count_bound(video, 0.2, 0.2), 2)        # 2 * ln(0.901 / 0.101) / 0.2
+    21.88
+    >>> len(simulate_events(video, [0, 1000, 2000], 0.2, 0.2))
+    20
+    """
+    v = _check_video(video)
+    n, height, width = v.shape
+    eps = _check_positive("log_eps", log_eps)
+    c_min = np.minimum(np.broadcast_to(np.asarray(contrast_pos, np.float64), (height, width)),
+                       np.broadcast_to(np.asarray(contrast_neg, np.float64), (height, width)))
+    if not (np.all(np.isfinite(c_min)) and np.all(c_min > 0)):
+        raise ValueError("contrast thresholds must be finite numbers > 0")
+    c_min = c_min.ravel()
+    frames = v.reshape(n, height * width)
+    table = np.log(np.arange(256, dtype=np.float64) / 255.0 + eps)
+
+    def log_of(values: np.ndarray) -> np.ndarray:
+        return table[values] if v.dtype == np.uint8 else np.log(values.astype(np.float64) + eps)
+
+    total, previous = 0.0, log_of(frames[0])
+    for j in range(1, n):
+        current = log_of(frames[j])
+        total += float(np.sum(np.abs(current - previous) / c_min))
+        previous = current
+    return total
 
 
 def _refractory_mask(

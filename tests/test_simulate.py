@@ -240,3 +240,105 @@ def test_input_is_not_modified():
 def test_bad_input_raises_value_error(video, t_us, kwargs, match):
     with pytest.raises(ValueError, match=match):
         simulate_events(video, t_us, **kwargs)
+
+
+# --- bounded memory and time range (issue 14) ---------------------------------------------
+
+
+def _noise_video(n=20, side=8, seed=0):
+    return np.random.default_rng(seed).random((n, side, side))
+
+
+def test_tiny_contrast_raises_before_allocating(monkeypatch):
+    # contrast 1e-6 on an 8 x 8 noise video: about 1.2e9 events (once 65 M were made)
+    import tracemalloc
+
+    from e2vlib.simulate import MAX_EVENTS, TooManyEventsError
+
+    video = _noise_video()
+    tracemalloc.start()
+    with pytest.raises(TooManyEventsError, match=r"more than max_events=50,000,000 events") as info:
+        simulate_events(video, np.arange(20) * 1000, contrast_pos=1e-6, contrast_neg=1e-6)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 10 * 2**20  # nothing near the 65 M events was allocated
+    message = str(info.value)
+    assert "Raise the contrast thresholds" in message and "contrast_pos=1e-06" in message
+    assert "simulate.event_count_bound" in message
+    assert MAX_EVENTS == 50_000_000
+    assert issubclass(TooManyEventsError, ValueError)
+
+
+def test_max_events_is_exact_and_overridable():
+    from e2vlib.simulate import TooManyEventsError
+
+    video, t = _noise_video(), np.arange(20) * 1000
+    n = len(simulate_events(video, t, 0.05, 0.05))
+    assert n > 1000
+    assert len(simulate_events(video, t, 0.05, 0.05, max_events=n)) == n  # at the limit: fine
+    with pytest.raises(TooManyEventsError, match=f"max_events={n - 1:,}"):
+        simulate_events(video, t, 0.05, 0.05, max_events=n - 1)
+    with pytest.raises(ValueError, match="max_events must be a whole number"):
+        simulate_events(video, t, max_events=-1)
+
+
+def test_threshold_so_small_the_count_overflows_int64_is_refused():
+    from e2vlib.simulate import TooManyEventsError
+
+    video = np.array([0.0, 1.0]).reshape(2, 1, 1)  # log change 6.9 / 1e-300 events
+    with pytest.raises(TooManyEventsError):
+        simulate_events(video, [0, 1000], contrast_pos=1e-300, contrast_neg=1e-300)
+
+
+@pytest.mark.parametrize("contrast, sigma", [(0.2, 0.0), (0.05, 0.0), (0.1, 0.03)])
+def test_event_count_bound_is_an_upper_bound(contrast, sigma):
+    from e2vlib.simulate import draw_thresholds, event_count_bound
+
+    video = _noise_video(30, 6, seed=3).astype(np.float32)
+    events = simulate_events(video, np.arange(30) * 100, contrast, contrast,
+                             contrast_sigma=sigma, seed=1)
+    on, off = draw_thresholds((6, 6), contrast, contrast, sigma, seed=1)
+    bound = event_count_bound(video, on, off)
+    assert len(events) <= bound
+    assert bound < 1.5 * len(events) + 36  # and not a wild over-estimate on noise
+
+
+def test_event_count_bound_known_answer_for_uint8():
+    from e2vlib.simulate import event_count_bound
+
+    video = np.array([0, 255, 0], np.uint8).reshape(3, 1, 1)
+    expected = 2 * (math.log(1 + EPS) - math.log(EPS)) / 0.25
+    assert event_count_bound(video, 0.5, 0.25) == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("t_us", [
+    np.array([0.0, 2.0**63]),                        # wraps to -2**63 when cast
+    np.array([0, 2**63 + 10], np.uint64),            # wraps as well
+    np.array([0, 2**53 + 2], np.int64),              # not exact in float64
+    np.array([-(2**62), 0], np.int64),
+])
+def test_frame_times_outside_the_exact_range_raise(t_us):
+    with pytest.raises(ValueError, match=r"t_us must lie within \+-9007199254740992 us"):
+        simulate_events(np.zeros((2, 1, 1)), t_us)
+
+
+def test_frame_times_near_the_limit_are_exact():
+    from e2vlib.simulate import MAX_ABS_TIME_US
+
+    start = MAX_ABS_TIME_US - 10_000
+    events = simulate_events(one_pixel_video([L0, L0 + 1.05]), [start, start + 10_000])
+    expected = start + np.rint(np.arange(1, 6) * 0.2 / 1.05 * 10_000).astype(np.int64)
+    np.testing.assert_array_equal(events["t"], expected)
+
+
+def test_long_frame_gaps_on_big_frames_sort_without_overflow():
+    # (time since the frame) * pixels would pass int64 for a 2**54 us gap on 32 x 32 pixels;
+    # the order must still be by time, then pixel
+    video = np.full((2, 32, 32), 0.2)
+    video[1] = np.random.default_rng(0).uniform(0.3, 0.9, (32, 32))
+    t = np.array([-(2**53), 2**53], np.int64)
+    events = simulate_events(video, t)
+    assert len(events) > 1024
+    key = np.lexsort((events["y"].astype(int) * 32 + events["x"], events["t"]))
+    np.testing.assert_array_equal(key, np.arange(len(events)))
+    assert events["t"].min() >= -(2**53) and events["t"].max() <= 2**53

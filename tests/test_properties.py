@@ -1,0 +1,155 @@
+"""Property-based tests (Hypothesis): file round trips and frame accumulation invariants.
+
+Each property is checked on ~50 generated examples (small sensors, short streams), so the
+file runs in seconds. Hypothesis shrinks any failure to a minimal event stream.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from e2vlib.events import EVENT_DTYPE, INT64_MAX, INT64_MIN, make_events
+from e2vlib.frames import accumulate
+from e2vlib.io import load_events, save_events
+
+# database=None: no .hypothesis/ folder is written into the repository
+SETTINGS = settings(max_examples=50, deadline=None, database=None,
+                    suppress_health_check=[HealthCheck.too_slow])
+WRITABLE = (".npz", ".txt", ".txt.gz", ".h5")
+
+
+@st.composite
+def event_streams(draw, t_min: int = INT64_MIN, t_max: int = INT64_MAX, max_events: int = 40,
+                  max_side: int = 70_000):
+    """``(events, sensor_size)``: any valid stream (sorted times in ``[t_min, t_max]``)."""
+    width = draw(st.integers(1, min(max_side, 65_536)))
+    height = draw(st.integers(1, min(max_side, 65_536)))
+    n = draw(st.integers(0, max_events))
+    x = draw(st.lists(st.integers(0, width - 1), min_size=n, max_size=n))
+    y = draw(st.lists(st.integers(0, height - 1), min_size=n, max_size=n))
+    t = sorted(draw(st.lists(st.integers(t_min, t_max), min_size=n, max_size=n)))
+    p = draw(st.lists(st.sampled_from([-1, 1]), min_size=n, max_size=n))
+    events = make_events(np.array(x, np.int64), np.array(y, np.int64),
+                         np.array(t, np.int64), np.array(p, np.int64))
+    return events, (width, height)
+
+
+@SETTINGS
+@given(stream=event_streams())
+@pytest.mark.parametrize("ending", WRITABLE)
+def test_any_valid_events_survive_save_and_load_exactly(ending, stream):
+    events, sensor_size = stream
+    with tempfile.TemporaryDirectory() as folder:
+        path = save_events(Path(folder) / f"events{ending}", events, sensor_size)
+        loaded, loaded_size = load_events(path)
+        assert [p.name for p in Path(folder).iterdir()] == [path.name]  # no temp file left
+    assert loaded.dtype == EVENT_DTYPE
+    assert loaded_size == sensor_size
+    np.testing.assert_array_equal(loaded, events)
+
+
+# --- frames ---------------------------------------------------------------------------------
+
+# Times within a few hundred windows of their start, so frame stacks stay small; the start
+# itself may be far from 0 (a Unix-time recording in microseconds, or negative).
+SMALL_STREAMS = st.tuples(
+    st.sampled_from([0, -5_000_000, 1_700_000_000_000_000]),
+    event_streams(t_min=0, t_max=20_000, max_events=60, max_side=9),
+)
+
+
+def _shifted(stream):
+    offset, (events, sensor_size) = stream
+    events = events.copy()
+    events["t"] += offset
+    return events, sensor_size, offset
+
+
+def _eq5_inside(t: np.ndarray, dt: int, t0: int, n_frames: int | None) -> np.ndarray:
+    """Which events the paper's Eq. 5 groups hold, found by a plain loop (the reference)."""
+    inside = np.zeros(len(t), dtype=bool)
+    i, groups = int(np.searchsorted(t, t0, side="left")), 0
+    while i < len(t) and (n_frames is None or groups < n_frames):
+        j = i
+        while j < len(t) and t[j] - t[i] <= dt:
+            j += 1
+        inside[i:j] = True
+        groups += 1
+        i = j
+    return inside
+
+
+@SETTINGS
+@given(stream=SMALL_STREAMS, dt=st.integers(100, 5_000),
+       t0_shift=st.one_of(st.none(), st.integers(-3_000, 20_000)),
+       n_frames=st.one_of(st.none(), st.integers(0, 40)))
+def test_fixed_windows_never_lose_an_event_inside_them(stream, dt, t0_shift, n_frames):
+    events, sensor_size, offset = _shifted(stream)
+    t0 = None if t0_shift is None else offset + t0_shift
+    counts = accumulate(events, sensor_size, dt_us=dt, t0_us=t0, n_frames=n_frames,
+                        mode="count")
+    t = events["t"]
+    start = (int(t[0]) if len(t) else 0) if t0 is None else t0
+    n = counts.shape[0]
+    if n_frames is not None:
+        assert n == n_frames
+    end = start + n * dt
+    if n_frames is None and len(t):
+        assert int(t[-1]) < end  # the default covers the last event
+    inside = int(np.count_nonzero((t >= start) & (t < end)))
+    assert int(counts.sum()) == inside
+    # and each event lands in its own window and pixel
+    keep = (t >= start) & (t < end)
+    expected = np.zeros_like(counts)
+    np.add.at(expected, ((t[keep] - start) // dt, events["y"][keep], events["x"][keep]), 1)
+    np.testing.assert_array_equal(counts, expected)
+
+
+@SETTINGS
+@given(stream=SMALL_STREAMS, dt=st.integers(100, 5_000),
+       t0_shift=st.one_of(st.none(), st.integers(-3_000, 20_000)),
+       n_frames=st.one_of(st.none(), st.integers(0, 40)))
+def test_paper_windows_never_lose_an_event_inside_them(stream, dt, t0_shift, n_frames):
+    events, sensor_size, offset = _shifted(stream)
+    t0 = None if t0_shift is None else offset + t0_shift
+    counts = accumulate(events, sensor_size, dt_us=dt, t0_us=t0, n_frames=n_frames,
+                        mode="count", windows="paper")
+    t = events["t"]
+    start = (int(t[0]) if len(t) else 0) if t0 is None else t0
+    assert int(counts.sum()) == int(_eq5_inside(t, dt, start, n_frames).sum())
+    if n_frames is None:  # every event from t0 on is in some group, and no group is empty
+        assert int(counts.sum()) == int(np.count_nonzero(t >= start))
+        assert np.all(counts.sum(axis=(1, 2)) > 0)
+
+
+@SETTINGS
+@given(stream=SMALL_STREAMS, dt=st.integers(100, 5_000),
+       windows=st.sampled_from(["fixed", "paper"]),
+       n_frames=st.one_of(st.none(), st.integers(0, 40)))
+def test_binary_at_most_count_and_polarity_channels_sum_to_count(stream, dt, windows,
+                                                                  n_frames):
+    events, sensor_size, _ = _shifted(stream)
+    kwargs = {"dt_us": dt, "n_frames": n_frames, "windows": windows}
+    binary = accumulate(events, sensor_size, mode="binary", **kwargs)
+    count = accumulate(events, sensor_size, mode="count", **kwargs)
+    polarity = accumulate(events, sensor_size, mode="polarity", **kwargs)
+    assert binary.shape == count.shape and polarity.shape[1] == 2
+    assert polarity.shape[0] == count.shape[0] and polarity.shape[2:] == count.shape[1:]
+    assert np.all(binary.astype(np.int64) <= count)
+    np.testing.assert_array_equal(binary, (count > 0).astype(binary.dtype))
+    np.testing.assert_array_equal(polarity[:, 0] + polarity[:, 1], count)
+    # channel 0 counts the OFF (-1) events inside the windows, channel 1 the ON (+1) ones
+    t = events["t"]
+    start = int(t[0]) if len(t) else 0
+    if windows == "fixed":
+        inside = (t >= start) & (t < start + count.shape[0] * dt)
+    else:
+        inside = _eq5_inside(t, dt, start, n_frames)
+    assert int(polarity[:, 0].sum()) == int(np.count_nonzero(inside & (events["p"] == -1)))
+    assert int(polarity[:, 1].sum()) == int(np.count_nonzero(inside & (events["p"] == 1)))
