@@ -188,7 +188,8 @@ def _make_data(args: argparse.Namespace) -> int:
     from e2vlib.paper import CATEGORIES
 
     settings = dict(DATA_PRESETS[args.preset]) if args.preset else {}
-    for key in ("per_category", "resolution", "frame_size", "seed"):
+    for key in ("per_category", "resolution", "frame_size", "seed", "n_frames", "dt_us",
+                "windows"):
         value = getattr(args, key)
         if value is not None:
             settings[key] = value
@@ -441,6 +442,25 @@ def _figures(args: argparse.Namespace) -> int:
     return 0
 
 
+def _experiment(args: argparse.Namespace) -> int:
+    from e2vlib.experiments import DEFAULT_OUT, STUDIES, format_summary, run_study, summarize
+
+    if args.study not in STUDIES:
+        raise UsageError(f"unknown study {args.study!r}; choose one of {', '.join(STUDIES)}")
+    unknown = [c for c in args.configs or () if c not in STUDIES[args.study].configs]
+    if unknown:
+        raise UsageError(f"study {args.study!r} has no configs {unknown}; it has "
+                         f"{', '.join(STUDIES[args.study].configs)}")
+    _check_device(args.device)
+    out = args.out or (DEFAULT_OUT.parent / "results-quick" if args.quick else DEFAULT_OUT)
+    _output_folder(str(out), "--out")
+    path = run_study(args.study, args.configs, args.seeds, out, device=args.device,
+                     quick=args.quick)
+    print(f"{path}:")
+    print(format_summary(summarize(path)))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="python -m e2vlib",
@@ -468,6 +488,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--raw-events-per-category", type=count, default=1,
                    help="samples per category whose raw events are kept (default 1)")
     p.add_argument("--seed", type=count, help="dataset seed (default 0)")
+    p.add_argument("--n-frames", type=positive, help="event frames per sample (default 100)")
+    p.add_argument("--dt-us", type=positive, help="frame length in microseconds (5000)")
+    p.add_argument("--windows", choices=("fixed", "paper"),
+                   help="frame grouping: fixed clock windows (default) or the paper's Eq. 5")
     p.add_argument("--workers", type=positive, default=1, help="parallel processes (default 1)")
     p.add_argument("--shard", default="0/1", help="build only shard i of n, e.g. 2/8")
     p.set_defaults(func=_make_data)
@@ -519,6 +543,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--categories", default="airplane,car,chair,lamp,table",
                    help="columns of the reconstruction picture (comma-separated)")
     p.set_defaults(func=_figures)
+
+    p = sub.add_parser("experiment", help="run a study (representation, time, encoder, loss): "
+                       "train and evaluate each config and seed, one record per run")
+    p.add_argument("study", help="representation, time, encoder or loss")
+    p.add_argument("--configs", nargs="+", help="only these configs of the study")
+    p.add_argument("--seeds", nargs="+", type=count, default=[0, 1, 2],
+                   help="seeds (default 0 1 2)")
+    p.add_argument("--out", help="results folder (default experiments/results, or "
+                   "experiments/results-quick with --quick)")
+    p.add_argument("--device", default="auto", help=f"one of {DEVICES} (default auto)")
+    p.add_argument("--quick", action="store_true",
+                   help="a tiny protocol for checks: 2 samples per category, 1 epoch, 32 px")
+    p.set_defaults(func=_experiment)
     return parser
 
 

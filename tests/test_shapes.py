@@ -1,4 +1,5 @@
-"""Tests for e2vlib.shapes: procedural categories, normalization, mesh files, ShapeNet folders."""
+"""Tests for e2vlib.shapes: procedural categories and their sub-types, normalization, mesh
+files, ShapeNet folders."""
 
 from __future__ import annotations
 
@@ -7,14 +8,17 @@ import itertools
 import numpy as np
 import pytest
 import trimesh
+from scipy import ndimage
 
 from e2vlib.shapes import (
     CATEGORIES,
     SHAPENET_SYNSETS,
+    SUB_TYPES,
     iter_shapenet,
     load_mesh,
     make_shape,
     normalize_mesh,
+    shape_kind,
     shapenet_to_zup,
 )
 from e2vlib.voxels import voxelize
@@ -101,6 +105,104 @@ def test_long_objects_lie_along_y(category):
         lo, hi = make_shape(category, seed).bounds
         ext = hi - lo
         assert ext[1] > ext[0], seed
+
+
+# --------------------------------------------------------------------------- sub-types
+
+BOXY = ("cabinet", "display", "speaker", "telephone")  # once plain boxes; now sub-types
+
+
+def _seeds_of(category: str, kind: str, n: int = 4) -> list[int]:
+    seeds = [s for s in range(60) if shape_kind(category, s) == kind][:n]
+    assert len(seeds) == n, (category, kind)
+    return seeds
+
+
+def test_sub_types_are_named_for_the_four_boxy_categories():
+    assert sorted(SUB_TYPES) == sorted(BOXY)
+    for category, kinds in SUB_TYPES.items():
+        assert len(kinds) >= 3, category
+        assert abs(sum(kinds.values()) - 1) < 1e-9, category
+
+
+@pytest.mark.parametrize("category", BOXY)
+def test_thirty_seeds_give_every_sub_type_watertight_and_normalized(category):
+    kinds = [shape_kind(category, seed) for seed in range(30)]
+    assert set(kinds) <= set(SUB_TYPES[category])
+    assert len(set(kinds)) >= 3
+    assert set(kinds) == set(SUB_TYPES[category])  # in fact all of them, for these seeds
+    assert kinds == [shape_kind(category, seed) for seed in range(30)]  # deterministic
+    for seed in range(30):
+        mesh = make_shape(category, seed)
+        lo, hi = mesh.bounds
+        np.testing.assert_allclose((lo + hi) / 2, 0, atol=1e-9)
+        assert abs((hi - lo).max() - 1) < 1e-9, (seed, kinds[seed])
+        assert mesh.is_watertight and mesh.body_count == 1, (seed, kinds[seed])
+
+
+def test_shape_kind_rejects_bad_input():
+    with pytest.raises(ValueError, match="no named sub-types; only cabinet"):
+        shape_kind("chair", 0)
+    with pytest.raises(ValueError, match="unknown category"):
+        shape_kind("spaceship", 0)
+    with pytest.raises(ValueError, match="seed"):
+        shape_kind("cabinet", -1)
+
+
+def _seen(occupied: np.ndarray, axis: int, from_high: bool) -> np.ndarray:
+    """Whether an occupied voxel lies on the low (or high) side of each voxel along axis."""
+    grid = np.flip(occupied, axis) if from_high else occupied
+    seen = np.logical_or.accumulate(grid, axis=axis)
+    return np.flip(seen, axis) if from_high else seen
+
+
+def _front_pockets(grid: np.ndarray) -> float:
+    """Fraction of the bounding box that is empty compartments open only to the front:
+    empty voxels with the object to their left and right (x), below and above (z) and
+    behind (+y), at least 2 voxels behind the object's front (so not the gaps between
+    handles on a closed front)."""
+    pocket = ~grid
+    for axis, from_high in ((0, False), (0, True), (2, False), (2, True), (1, True)):
+        pocket &= _seen(grid, axis, from_high)
+    idx = np.argwhere(grid)
+    lo, hi = idx.min(axis=0), idx.max(axis=0)
+    pocket[:, : lo[1] + 2, :] = False
+    return float(pocket.sum() / np.prod(hi - lo + 1))
+
+
+def test_open_cabinets_have_empty_compartments_closed_ones_lack():
+    # labels are solid only where a cavity is enclosed: open shelves and an opened cupboard
+    # stay empty, a closed chest is solid all through
+    for kind in ("shelves", "open_door"):
+        for seed in _seeds_of("cabinet", kind):
+            assert _front_pockets(voxelize(make_shape("cabinet", seed))) > 0.025, (kind, seed)
+    for seed in _seeds_of("cabinet", "chest"):
+        assert _front_pockets(voxelize(make_shape("cabinet", seed))) < 0.005, seed
+    # the pockets are really the compartments: filling the open front closes them
+    seed = _seeds_of("cabinet", "shelves", 1)[0]
+    grid = voxelize(make_shape("cabinet", seed))
+    closed = grid.copy()
+    j0 = np.argwhere(grid)[:, 1].min()
+    closed[:, j0, :] |= grid.any(axis=1)  # a door over the whole front silhouette
+    assert _front_pockets(ndimage.binary_fill_holes(closed)) < 0.005
+
+
+def test_speakers_on_a_stand_have_a_thin_waist():
+    for seed in _seeds_of("speaker", "stand"):
+        grid = voxelize(make_shape("speaker", seed))
+        k = np.nonzero(grid.any(axis=(0, 1)))[0]
+        lo, span = k.min(), k.max() - k.min()
+        waist, box = (grid[:, :, lo + int(f * span)].sum() for f in (0.35, 0.85))
+        assert waist < 0.3 * box, seed  # the post(s) under the box
+
+
+def test_mobiles_are_thin_slabs_and_flip_phones_bend_back():
+    for seed in _seeds_of("telephone", "mobile"):
+        ext = make_shape("telephone", seed).extents
+        assert ext[2] == pytest.approx(1.0) and ext[1] < 0.12, seed  # upright, thin in y
+    for seed in _seeds_of("telephone", "flip"):
+        ext = make_shape("telephone", seed).extents
+        assert ext[2] == pytest.approx(1.0) and ext[1] > 0.15, seed  # the lid leans back
 
 
 def test_make_shape_rejects_bad_input():

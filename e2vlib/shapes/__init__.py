@@ -9,12 +9,17 @@ z up, the object's front towards -y, x left-right. That is ShapeNetCore v2's can
 
 Module map, in the order an object is made::
 
-    primitives   boxes, rods, hulls, beams, spheres, solids of revolution, panels; Rng, Parts
+    primitives   boxes, rods, hulls, beams, spheres, solids of revolution, panels, bricks;
+                 rotating parts (_turn); Rng, Parts
     parts        random proportions and styles of parts (_u, _pick); joining parts (_union)
     vehicles     builders: airplane, car, watercraft
-    furniture    builders: bench, cabinet, chair, lamp, sofa, table
-    devices      builders: display, rifle, speaker, telephone
-    builders     category -> builder table; make_shape(category, seed)
+    furniture    builders: bench, chair, lamp, sofa, table
+    cabinets     builder: cabinet, in 5 sub-types (chest, shelves, open_door, on_legs, hutch)
+    displays     builder: display, in 5 sub-types (monitor, arm, tv, crt, all_in_one)
+    speakers     builder: speaker, in 6 sub-types (box, stand, round, wedge, system, bar)
+    telephones   builder: telephone, in 5 sub-types (mobile, feature, flip, desk, cordless)
+    devices      builder: rifle
+    builders     category -> builder table; make_shape(category, seed); SUB_TYPES, shape_kind
     meshes       normalize_mesh, load_mesh, MESH_SUFFIXES
     shapenet     iter_shapenet (ShapeNetCore folders), shapenet_to_zup
 
@@ -26,7 +31,7 @@ Introduced in notebooks/04_building_the_dataset.ipynb.
 from __future__ import annotations
 
 from e2vlib.paper import CATEGORIES, SHAPENET_SYNSETS
-from e2vlib.shapes.builders import make_shape
+from e2vlib.shapes.builders import SUB_TYPES, make_shape, shape_kind
 from e2vlib.shapes.meshes import MESH_SUFFIXES, load_mesh, normalize_mesh
 from e2vlib.shapes.primitives import Parts, Rng
 from e2vlib.shapes.shapenet import iter_shapenet, shapenet_to_zup
@@ -35,11 +40,13 @@ __all__ = [
     "CATEGORIES",
     "MESH_SUFFIXES",
     "SHAPENET_SYNSETS",
+    "SUB_TYPES",
     "Parts",
     "Rng",
     "iter_shapenet",
     "load_mesh",
     "make_shape",
     "normalize_mesh",
+    "shape_kind",
     "shapenet_to_zup",
 ]

@@ -1,8 +1,11 @@
-"""The category -> builder table and :func:`make_shape`, the procedural object factory.
+"""The category -> builder table, :func:`make_shape` (the procedural object factory) and
+:func:`shape_kind` (which sub-type of its category an object is, :data:`SUB_TYPES`).
 
-The builders themselves live in :mod:`e2vlib.shapes.vehicles`, :mod:`e2vlib.shapes.furniture`
-and :mod:`e2vlib.shapes.devices`; each returns parts that :func:`make_shape` joins
-(:func:`e2vlib.shapes.parts._union`) and normalizes (:func:`e2vlib.shapes.meshes.normalize_mesh`).
+The builders themselves live in :mod:`e2vlib.shapes.vehicles`, :mod:`e2vlib.shapes.furniture`,
+:mod:`e2vlib.shapes.cabinets`, :mod:`e2vlib.shapes.displays`, :mod:`e2vlib.shapes.speakers`,
+:mod:`e2vlib.shapes.telephones` and :mod:`e2vlib.shapes.devices`; each returns parts that
+:func:`make_shape` joins (:func:`e2vlib.shapes.parts._union`) and normalizes
+(:func:`e2vlib.shapes.meshes.normalize_mesh`).
 """
 
 from __future__ import annotations
@@ -13,11 +16,15 @@ import numpy as np
 import trimesh
 
 from e2vlib.paper import CATEGORIES
-from e2vlib.shapes.devices import _display, _rifle, _speaker, _telephone
-from e2vlib.shapes.furniture import _bench, _cabinet, _chair, _lamp, _sofa, _table
+from e2vlib.shapes.cabinets import CABINET_KINDS, _cabinet
+from e2vlib.shapes.devices import _rifle
+from e2vlib.shapes.displays import DISPLAY_KINDS, _display
+from e2vlib.shapes.furniture import _bench, _chair, _lamp, _sofa, _table
 from e2vlib.shapes.meshes import normalize_mesh
-from e2vlib.shapes.parts import _union
+from e2vlib.shapes.parts import _pick, _union
 from e2vlib.shapes.primitives import Parts, Rng
+from e2vlib.shapes.speakers import SPEAKER_KINDS, _speaker
+from e2vlib.shapes.telephones import TELEPHONE_KINDS, _telephone
 from e2vlib.shapes.vehicles import _airplane, _car, _watercraft
 
 _BUILDERS: dict[str, Callable[[Rng], Parts]] = {
@@ -36,6 +43,25 @@ _BUILDERS: dict[str, Callable[[Rng], Parts]] = {
     "watercraft": _watercraft,
 }
 
+SUB_TYPES: dict[str, dict[str, float]] = {
+    "cabinet": CABINET_KINDS,
+    "display": DISPLAY_KINDS,
+    "speaker": SPEAKER_KINDS,
+    "telephone": TELEPHONE_KINDS,
+}
+"""Categories built from named sub-types: category -> {sub-type: probability}. Each builder
+draws its sub-type first, so :func:`shape_kind` knows it without building the mesh. (The
+other categories vary their parts and styles too, without a named sub-type.)"""
+
+
+def _check(category: str, seed: int) -> np.random.Generator:
+    """The random stream of ``(category, seed)``, or ValueError for bad input."""
+    if category not in _BUILDERS:
+        raise ValueError(f"unknown category {category!r}; choose one of {', '.join(CATEGORIES)}")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed must be a non-negative int, got {seed!r}")
+    return np.random.default_rng([CATEGORIES.index(category), int(seed)])
+
 
 def make_shape(category: str, seed: int) -> trimesh.Trimesh:
     """Build a random but recognisable object of one of the 13 :data:`CATEGORIES`.
@@ -47,6 +73,11 @@ def make_shape(category: str, seed: int) -> trimesh.Trimesh:
     the parts are concatenated, which :func:`e2vlib.voxels.voxelize` still fills correctly.
     The mesh is normalized (bounding box centred at the origin, longest side 1), z up,
     front towards -y, not randomly rotated: like ShapeNet, objects share one canonical pose.
+
+    Cabinets, displays, speakers and telephones come in named sub-types with parts the
+    others lack (open shelves, an open door, a panel on an arm, a speaker on a stand, a
+    handset on a cradle...): :data:`SUB_TYPES` lists them, :func:`shape_kind` says which
+    one a seed gives.
 
     Raises ValueError for an unknown category (listing the valid ones) or a negative seed.
 
@@ -66,10 +97,31 @@ def make_shape(category: str, seed: int) -> trimesh.Trimesh:
     ...
     ValueError: seed must be a non-negative int, got -1
     """
-    if category not in _BUILDERS:
-        raise ValueError(f"unknown category {category!r}; choose one of {', '.join(CATEGORIES)}")
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"seed must be a non-negative int, got {seed!r}")
-    rng = np.random.default_rng([CATEGORIES.index(category), int(seed)])
+    rng = _check(category, seed)
     parts = _BUILDERS[category](rng)
     return normalize_mesh(_union(parts))
+
+
+def shape_kind(category: str, seed: int) -> str:
+    """The sub-type (a key of ``SUB_TYPES[category]``) of ``make_shape(category, seed)``.
+
+    Cheap: it replays only the first random draw of the builder, not the mesh. Raises
+    ValueError for a category without named sub-types (listing those that have them), an
+    unknown category or a negative seed. bench/bench_categories.py draws one object of each
+    sub-type with it (docs/figures/category_gallery.png).
+
+    Examples
+    --------
+    >>> sorted(SUB_TYPES["cabinet"])
+    ['chest', 'hutch', 'on_legs', 'open_door', 'shelves']
+    >>> shape_kind("cabinet", 0) in SUB_TYPES["cabinet"]
+    True
+    >>> shape_kind("chair", 0)
+    Traceback (most recent call last):
+    ...
+    ValueError: chair has no named sub-types; only cabinet, display, speaker, telephone have
+    """
+    rng = _check(category, seed)
+    if category not in SUB_TYPES:
+        raise ValueError(f"{category} has no named sub-types; only {', '.join(SUB_TYPES)} have")
+    return _pick(rng, SUB_TYPES[category])

@@ -1,4 +1,5 @@
-"""Procedural category builders. Furniture: bench, cabinet, chair, lamp, sofa and table.
+"""Procedural category builders. Furniture: bench, chair, lamp, sofa and table (cabinets,
+with their sub-types, are in :mod:`e2vlib.shapes.cabinets`).
 
 Each builder takes a ``numpy.random.Generator`` and returns the parts of one object
 (watertight ``trimesh.Trimesh`` solids) in rough metres, z up, front towards -y; parts that
@@ -107,79 +108,6 @@ def _bench(rng: Rng) -> Parts:
                 parts.append(
                     _cbox((x, -depth / 2 + 0.03, (arm_z + h) / 2), (0.04, 0.04, arm_z - h + 0.04))
                 )
-    return parts
-
-
-def _cabinet(rng: Rng) -> Parts:
-    kind = _pick(rng, {"tall": 0.3, "sideboard": 0.3, "nightstand": 0.2, "bookcase": 0.2})
-    w, d, h = {
-        "tall": (_u(rng, 0.5, 1.1), _u(rng, 0.4, 0.6), _u(rng, 1.4, 2.0)),
-        "sideboard": (_u(rng, 1.0, 1.8), _u(rng, 0.4, 0.55), _u(rng, 0.6, 0.95)),
-        "nightstand": (_u(rng, 0.4, 0.6), _u(rng, 0.35, 0.5), _u(rng, 0.45, 0.7)),
-        "bookcase": (_u(rng, 0.6, 1.2), _u(rng, 0.25, 0.4), _u(rng, 0.9, 2.0)),
-    }[kind]
-    base = _pick(rng, {"legs": 0.4, "plinth": 0.35, "none": 0.25})
-    z0 = {"legs": _u(rng, 0.08, 0.2), "plinth": _u(rng, 0.05, 0.1), "none": 0.0}[base]
-    parts: Parts = []
-    if base == "legs":
-        lw = 0.04
-        for sx in (-1, 1):
-            for sy in (-1, 1):
-                parts.append(
-                    _cbox((sx * (w / 2 - lw), sy * (d / 2 - lw), z0 / 2), (lw, lw, z0 + 2 * _EPS))
-                )
-    elif base == "plinth":
-        parts.append(_box((-w / 2 + 0.03, -d / 2 + 0.04, 0), (w / 2 - 0.03, d / 2, z0 + _EPS)))
-    if kind == "bookcase":
-        t = 0.025
-        parts.append(_box((-w / 2, -d / 2, z0), (-w / 2 + t, d / 2, h)))
-        parts.append(_box((w / 2 - t, -d / 2, z0), (w / 2, d / 2, h)))
-        parts.append(_box((-w / 2, d / 2 - t, z0), (w / 2, d / 2, h)))
-        n_shelves = int(rng.integers(2, 6))
-        for k in range(n_shelves + 2):
-            z = z0 + (h - z0 - t) * k / (n_shelves + 1)
-            parts.append(_box((-w / 2, -d / 2, z), (w / 2, d / 2, z + t)))
-        if rng.random() < 0.4:  # doors on the lower part
-            z_top = z0 + (h - z0 - t) / (n_shelves + 1) + t
-            # a closed cupboard: fill it, so the mesh has no inner cavity
-            parts.append(_box((-w / 2, -d / 2 - 0.015, z0), (w / 2, d / 2, z_top)))
-        return parts
-    parts.append(_box((-w / 2, -d / 2, z0), (w / 2, d / 2, h)))
-    if rng.random() < 0.5:  # top with an overhang
-        o = _u(rng, 0.01, 0.04)
-        parts.append(_box((-w / 2 - o, -d / 2 - o, h - _EPS), (w / 2 + o, d / 2 + o, h + 0.03)))
-    fy = -d / 2  # front face
-    front = _pick(rng, {"doors": 0.45, "drawers": 0.3, "mixed": 0.25})
-    n_cols = int(rng.integers(1, 4)) if w > 0.8 else int(rng.integers(1, 3))
-    gap = 0.01
-    z_split = (
-        h
-        if front == "doors"
-        else (z0 if front == "drawers" else z0 + (h - z0) * _u(rng, 0.55, 0.75))
-    )
-    handle_r = 0.008
-    if z_split > z0 + 0.05:  # doors from z0 to z_split
-        cw = w / n_cols
-        for k in range(n_cols):
-            x0, x1 = -w / 2 + k * cw + gap, -w / 2 + (k + 1) * cw - gap
-            parts.append(_box((x0, fy - 0.015, z0 + gap), (x1, fy + 0.01, z_split - gap)))
-            hx = x1 - 0.04 if k % 2 == 0 else x0 + 0.04
-            zc = z0 + (z_split - z0) * 0.6
-            hl = min(0.15, (z_split - z0) * 0.25)
-            parts.append(
-                _rod((hx, fy - 0.035, zc - hl / 2), (hx, fy - 0.035, zc + hl / 2), handle_r, 8)
-            )
-            parts.append(_cbox((hx, fy - 0.025, zc), (0.012, 0.03, 0.012)))
-    if z_split < h - 0.05:  # drawers from z_split to h
-        n_rows = max(1, int(round((h - z_split) / _u(rng, 0.15, 0.3))))
-        rh = (h - z_split) / n_rows
-        for k in range(n_rows):
-            z_lo, z_hi = z_split + k * rh + gap, z_split + (k + 1) * rh - gap
-            parts.append(_box((-w / 2 + gap, fy - 0.015, z_lo), (w / 2 - gap, fy + 0.01, z_hi)))
-            zc = (z_lo + z_hi) / 2
-            hl = min(0.25, w * 0.3)
-            parts.append(_rod((-hl / 2, fy - 0.035, zc), (hl / 2, fy - 0.035, zc), handle_r, 8))
-            parts.append(_cbox((0, fy - 0.025, zc), (0.012, 0.03, 0.012)))
     return parts
 
 

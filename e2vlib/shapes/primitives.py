@@ -1,5 +1,6 @@
 """Mesh primitives the procedural objects are built from: boxes, rods (cylinders), convex
-hulls, square beams, spheres, solids of revolution and tapered panels.
+hulls, square beams, spheres, solids of revolution, tapered panels and oriented boxes
+(bricks); and :func:`_turn`, which rotates parts about an axis (an open door, a tilted screen).
 
 Every primitive returns a watertight ``trimesh.Trimesh`` in metres; points are ``(x, y, z)``
 with z up. ``Rng`` and ``Parts`` are the types the category builders take and return.
@@ -106,3 +107,20 @@ def _panel(
             for sign in (-1, 1):
                 pts.append(le + c * chord * frac + n * sign * t * thick)
     return _hull(pts)
+
+
+def _brick(
+    corner: Iterable[float], a: Iterable[float], b: Iterable[float], c: Iterable[float]
+) -> trimesh.Trimesh:
+    """Parallelepiped with one ``corner`` and edge vectors ``a``, ``b``, ``c`` from it (an
+    oriented box: an open door, a tilted screen, one half of a flip phone)."""
+    o, ea, eb, ec = (np.asarray(list(v), float) for v in (corner, a, b, c))
+    return _hull([o + i * ea + j * eb + k * ec for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+
+
+def _turn(parts: Parts, degrees: float, axis: Iterable[float], point: Iterable[float]) -> Parts:
+    """The parts rotated by ``degrees`` (right-handed) about ``axis`` through ``point``."""
+    m = trimesh.transformations.rotation_matrix(
+        np.radians(degrees), np.asarray(list(axis), float), np.asarray(list(point), float)
+    )
+    return [p.copy().apply_transform(m) for p in parts]
