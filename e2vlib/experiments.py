@@ -116,12 +116,14 @@ STUDIES: dict[str, Study] = {
 # ----------------------------------------------------------------------------- data
 
 
-def _needs_events(protocol: dict) -> bool:
-    """True unless the stored binary 5 ms frames of ``data`` can be used as they are."""
+def _needs_events(protocol: dict, stored: dict) -> bool:
+    """True unless the dataset's stored frames (settings ``stored``, a dataset config) are the
+    protocol's input, possibly after max-pooling to a smaller ``frame_size``."""
     return not (protocol["representation"] == "binary"
-                and protocol["n_frames"] == paper.N_EVENT_FRAMES
-                and protocol["dt_us"] == paper.DT_US
-                and paper.FRAME_SIZE_PX % protocol["frame_size"] == 0)
+                and protocol["n_frames"] == stored["n_frames"]
+                and protocol["dt_us"] == stored["dt_us"]
+                and stored["windows"] == "fixed"
+                and stored["frame_size"] % protocol["frame_size"] == 0)
 
 
 def _check_events_folder(protocol: dict) -> Path:
@@ -142,17 +144,17 @@ def _check_events_folder(protocol: dict) -> Path:
     return events
 
 
-def _subset(tensors, per_category: int | None):
-    """The first ``per_category`` items of each category (quick mode), else everything."""
+def _first_per_category(categories: Sequence[str], per_category: int | None) -> list[int]:
+    """Indices of the first ``per_category`` items of each category (all when None)."""
     if per_category is None:
-        return tensors
+        return list(range(len(categories)))
     seen: dict[str, int] = {}
     keep = []
-    for i, category in enumerate(tensors.categories):
+    for i, category in enumerate(categories):
         if seen.get(category, 0) < per_category:
             keep.append(i)
             seen[category] = seen.get(category, 0) + 1
-    return tensors.subset(keep)
+    return keep
 
 
 def input_config(dataset_config: dict, protocol: dict) -> dict:
@@ -169,8 +171,8 @@ _MEMORY: dict[str, object] = {}
 
 def _input_key(protocol: dict, split: str) -> str:
     keys = ("representation", "n_frames", "dt_us", "frame_size")
-    text = json.dumps({k: protocol[k] for k in keys} | {"split": split,
-                                                        "data": protocol["data"]})
+    text = json.dumps({k: protocol[k] for k in keys} | {
+        "split": split, "data": protocol["data"], "per_category": protocol.get("per_category")})
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -190,11 +192,12 @@ def load_split(protocol: dict, split: str, progress: bool = False):
 
     key = _input_key(protocol, split)
     if key in _MEMORY:
-        return _subset(_MEMORY[key], protocol.get("per_category"))
+        return _MEMORY[key]
     dataset = E2VDataset(protocol["data"], split)
-    if not _needs_events(protocol):
-        tensors = preload(dataset, progress=progress)
-        factor = paper.FRAME_SIZE_PX // protocol["frame_size"]
+    keep = _first_per_category(dataset.categories, protocol.get("per_category"))
+    if not _needs_events(protocol, dataset.config):
+        tensors = preload(dataset, progress=progress).subset(keep)
+        factor = dataset.config["frame_size"] // protocol["frame_size"]
         frames = tensors.frames
         if factor > 1:
             frames = torch.from_numpy(downsample(frames.numpy(), factor))
@@ -208,7 +211,7 @@ def load_split(protocol: dict, split: str, progress: bool = False):
 
         events_root = _check_events_folder(protocol)
         frames, voxels = [], []
-        for index in tqdm(range(len(dataset)), desc=f"{protocol['representation']} {split}",
+        for index in tqdm(keep, desc=f"{protocol['representation']} {split}",
                           disable=not progress, leave=False):
             sample_id = dataset.ids[index]
             events, sensor = load_events(events_root / "events" / f"{sample_id}.npz")
@@ -216,12 +219,13 @@ def load_split(protocol: dict, split: str, progress: bool = False):
                                 protocol["frame_size"], protocol["n_frames"], protocol["dt_us"])
             frames.append(torch.from_numpy(x if x.dtype == np.uint8 else x.astype(np.float16)))
             voxels.append(torch.from_numpy(dataset.arrays(index)[1]))
-        tensors = TensorSet(torch.stack(frames), torch.stack(voxels), list(dataset.categories),
-                            list(dataset.ids), input_config(dataset.config, protocol))
+        tensors = TensorSet(torch.stack(frames), torch.stack(voxels),
+                            [dataset.categories[i] for i in keep],
+                            [dataset.ids[i] for i in keep], input_config(dataset.config, protocol))
     if len(_MEMORY) >= 3:  # keep one protocol's train/val/test, not every representation's
         _MEMORY.clear()
     _MEMORY[key] = tensors
-    return _subset(tensors, protocol.get("per_category"))
+    return tensors
 
 
 # ----------------------------------------------------------------------------- one run
@@ -421,7 +425,7 @@ def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> lis
         row["std"] = float(values.std(ddof=1)) if len(values) > 1 else float("nan")
         half = (float(stats.t.ppf(0.975, len(values) - 1)) * row["std"] / np.sqrt(len(values))
                 if len(values) > 1 else float("nan"))
-        row["ci95"] = (row["mean"] - half, row["mean"] + half)
+        row["ci95"] = (float(row["mean"] - half), float(row["mean"] + half))
     return list(rows.values())
 
 
@@ -432,3 +436,58 @@ def format_summary(rows: list[dict], metric: str = "iou@0.3") -> str:
         lines.append(f"| {row['config']} | {row['n']} | {row['mean']:.3f} ± {row['std']:.3f} | "
                      f"{row['ci95'][0]:.3f}–{row['ci95'][1]:.3f} |")
     return "\n".join(lines)
+
+
+def plot_summary(rows: list[dict], ax=None, metric: str = "iou@0.3",
+                 reference: float | None = None,
+                 title: str | None = None):
+    """Bar chart of :func:`summarize` rows: mean with 95 % interval error bars, seeds as dots.
+
+    ``reference`` draws a dashed line (e.g. the base config's mean). Returns the axes.
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(1.1 * len(rows) + 2, 3.2))
+    x = np.arange(len(rows))
+    means = [r["mean"] for r in rows]
+    errors = np.array([[r["mean"] - r["ci95"][0], r["ci95"][1] - r["mean"]] for r in rows]).T
+    ax.bar(x, means, color="#8fa8c8", width=0.6, yerr=np.nan_to_num(errors), capsize=4,
+           label="mean, 95 % interval")
+    for i, row in enumerate(rows):
+        ax.plot(np.full(len(row["values"]), i) + np.linspace(-0.12, 0.12, len(row["values"])),
+                row["values"], "o", color="#333333", markersize=3.5,
+                label="one seed" if i == 0 else None)
+    if reference is not None:
+        ax.axhline(reference, color="#d62728", linestyle="--", linewidth=1)
+    ax.set_xticks(x, [r["config"] for r in rows], rotation=20, ha="right")
+    ax.set_ylabel(f"test {metric}")
+    low = min(min(r["values"]) for r in rows)
+    ax.set_ylim(max(0.0, low - 0.1), min(1.0, max(max(r["values"]) for r in rows) + 0.06))
+    if title:
+        ax.set_title(title)
+    ax.legend(loc="lower right", fontsize=8)
+    return ax
+
+
+def compare(rows: list[dict], baseline: str) -> list[dict]:
+    """Each config's difference from ``baseline``, with Welch's t-test p-value over seeds.
+
+    Returns ``[{"config", "difference", "p_value", "clear"}]`` where ``clear`` means the
+    95 % intervals of the two configs do not overlap (a conservative reading with 3 seeds).
+    """
+    from scipy import stats
+
+    base = next((r for r in rows if r["config"] == baseline), None)
+    if base is None:
+        raise ValueError(f"no config {baseline!r} among {[r['config'] for r in rows]}")
+    out = []
+    for row in rows:
+        if row is base:
+            continue
+        p = (float(stats.ttest_ind(row["values"], base["values"], equal_var=False).pvalue)
+             if row["n"] > 1 and base["n"] > 1 else float("nan"))
+        clear = row["ci95"][0] > base["ci95"][1] or row["ci95"][1] < base["ci95"][0]
+        out.append({"config": row["config"], "difference": row["mean"] - base["mean"],
+                    "p_value": p, "clear": bool(clear)})
+    return out

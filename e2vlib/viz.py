@@ -20,6 +20,10 @@ notebooks/08_visualizing_in_3d.ipynb.
 
 from __future__ import annotations
 
+import os
+import tempfile
+from pathlib import Path
+
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
@@ -29,6 +33,7 @@ from e2vlib.events import check_sensor_size, validate
 from e2vlib.frames import accumulate
 from e2vlib.render import headless_opengl_window  # re-exported: lessons call viz.*
 
+_WASM_OVERRIDE = "VTK_WASM_DIR_OVERRIDE"
 ON_COLOR, OFF_COLOR = "#d62728", "#1f77b4"
 
 
@@ -277,6 +282,34 @@ UNIT_CUBE_BOUNDS = (-0.5, 0.5, -0.5, 0.5, -0.5, 0.5)
 
 
 
+def offline_wasm_bundle() -> str | None:
+    """Keep pyvista's trame view from downloading VTK's WebAssembly bundle at run time.
+
+    pyvista's trame backend loads ``trame-vtklocal`` when it is installed (``pyvista[jupyter]``
+    pulls it in), and that module fetches VTK's WebAssembly build from gitlab.kitware.com the
+    first time a view starts: offline, the cell shows a long traceback. Where the bundle is
+    not on disk and ``VTK_WASM_DIR_OVERRIDE`` is unset, this points that variable at an empty
+    folder, so nothing is fetched and the view renders as usual (on the server, or with
+    vtk.js in the browser). Returns the value in force (None without trame-vtklocal).
+    :func:`new_plotter` calls it; introduced in notebooks/08_visualizing_in_3d.ipynb.
+    """
+    if _WASM_OVERRIDE in os.environ:
+        return os.environ[_WASM_OVERRIDE]
+    try:
+        from trame_vtklocal.module import wasm_serve_path
+        from trame_vtklocal.module.wasm import has_required_files
+        from vtkmodules.vtkCommonCore import vtkVersion
+    except ImportError:
+        return None
+    version = vtkVersion().GetVTKVersion()
+    if has_required_files(Path(wasm_serve_path) / "wasm32" / version, version):
+        return None  # downloaded before (or bundled): let trame use it
+    empty = Path(tempfile.gettempdir()) / "e2v-no-vtk-wasm"
+    empty.mkdir(exist_ok=True)
+    os.environ[_WASM_OVERRIDE] = str(empty)
+    return str(empty)
+
+
 def new_plotter(off_screen: bool | None = None, window_size=(500, 500), shape=(1, 1)):
     """An empty ``pyvista.Plotter`` in the lessons' style: white, evenly lit, no borders.
 
@@ -291,6 +324,7 @@ def new_plotter(off_screen: bool | None = None, window_size=(500, 500), shape=(1
     import pyvista as pv
 
     headless_opengl_window()
+    offline_wasm_bundle()
     plotter = pv.Plotter(off_screen=off_screen, window_size=window_size, shape=shape,
                          border=False, lighting="three lights")
     plotter.set_background("white")

@@ -415,3 +415,13 @@ def test_export_reconstruction_subset_and_errors(tmp_path):
         viz.export_reconstruction(probs, tmp_path, name="../x")
 
 
+
+
+def test_trame_never_downloads_its_webassembly_bundle(monkeypatch):
+    pytest.importorskip("trame_vtklocal")
+    monkeypatch.setenv("VTK_WASM_DIR_OVERRIDE", "/my/own/wasm")
+    assert viz.offline_wasm_bundle() == "/my/own/wasm"  # the user's choice stands
+    monkeypatch.delenv("VTK_WASM_DIR_OVERRIDE")
+    chosen = viz.offline_wasm_bundle()  # this machine has no bundle on disk
+    assert chosen is not None and os.environ["VTK_WASM_DIR_OVERRIDE"] == chosen
+    assert os.path.isdir(chosen)
