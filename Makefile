@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static
 
-.PHONY: venv lab test unit notebooks lint format bench data figures strip student clean
+.PHONY: venv lab test unit notebooks browser lint format bench data figures strip student clean
 
 venv: $(STAMP)
 
@@ -28,6 +28,18 @@ unit: $(STAMP)
 
 notebooks: $(STAMP)
 	$(QUICK_ENV) $(PY) -m pytest notebooks --nbmake --nbmake-timeout=600 --durations=0
+
+# Lessons 00 and 08 in a real JupyterLab, driven by headless Chromium (Debian's chromium at
+# /usr/bin/chromium) through Playwright: every cell runs without error, the 3D views draw, the
+# explorer redraws. BROWSER_ARGS="--figures docs/figures" also renews the README's screenshots.
+BROWSER_STAMP := $(VENV)/.browser-installed
+
+$(BROWSER_STAMP): environment/browser-requirements.txt $(STAMP)
+	$(PY) -m pip install -r environment/browser-requirements.txt
+	touch $(BROWSER_STAMP)
+
+browser: $(BROWSER_STAMP)
+	$(PY) tests/browser/run_lab.py $(BROWSER_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
