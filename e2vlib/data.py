@@ -584,7 +584,7 @@ def load_synthevox3d_scan(scan: Path, frame_size: int = 256) -> tuple[np.ndarray
     if table.ndim != 2 or table.shape[1] != 4:
         raise ValueError(f"{scan}/events.npz: expected an (N, 4) array t, x, y, p, "
                          f"got {table.shape}")
-    if voxels.shape != (32, 32, 32):
+    if voxels.shape != (paper.GRID_SIDE,) * 3:
         raise ValueError(f"{scan}/model_normalized.npz: expected 32^3 voxels, got {voxels.shape}")
     t, x, y, p = table.T
     scale = synthevox3d_time_scale(t)
