@@ -136,3 +136,125 @@ def fscores(pred, gt, threshold: float = paper.IOU_THRESHOLD,
         total = precision + recall
         out.append(0.0 if total == 0 else 2 * precision * recall / total)
     return np.array(out)
+
+
+def surface_voxels(occupancy) -> np.ndarray:
+    """The surface voxels of a binary grid: occupied, with an empty face neighbour.
+
+    A voxel is on the surface when at least one of its 6 face neighbours is empty;
+    outside the grid counts as empty, so occupied voxels on the grid's border are surface
+    voxels. Returns a ``bool`` array of the grid's shape ``(D, H, W)``.
+    Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> grid = np.zeros((32, 32, 32), dtype=bool); grid[8:11, 8:11, 8:11] = True
+    >>> int(surface_voxels(grid).sum())     # a 3^3 block: all but its centre voxel
+    26
+    >>> bool(surface_voxels(grid)[9, 9, 9])
+    False
+    """
+    from scipy import ndimage
+
+    occupancy = np.asarray(occupancy, dtype=bool)
+    if occupancy.ndim != 3:
+        raise ValueError(f"surface_voxels needs one (D, H, W) grid, got shape {occupancy.shape}; "
+                         "loop over a batch")
+    faces = ndimage.generate_binary_structure(3, 1)  # the 6 face neighbours
+    interior = ndimage.binary_erosion(occupancy, structure=faces, border_value=0)
+    return occupancy & ~interior
+
+
+def surface_voxel_fscore(pred, gt, threshold: float = paper.IOU_THRESHOLD,
+                         tolerance_voxels: float = 0.0):
+    """F-score of the surface voxels of ``pred >= threshold`` and ``gt > 0.5``.
+
+    One reading of the paper's unexplained F-Score@20 % (notebooks/07_evaluation.ipynb
+    tests it against Table II): no points are sampled; the surface voxels
+    (:func:`surface_voxels`) of the two grids are compared directly. Precision is the share
+    of predicted surface voxels whose centre lies within ``tolerance_voxels`` (Euclidean,
+    in voxels) of a ground-truth surface voxel's centre, recall the reverse, and
+    F = 2PR / (P + R). With the default ``tolerance_voxels=0`` only surface voxels that
+    coincide exactly count. Two grids without surface score 1, one without 0 (as
+    :func:`fscore`). Returns a float for one grid, ``(B,)`` for a batch.
+
+    Examples
+    --------
+    >>> gt = np.zeros((32, 32, 32)); gt[8:11, 8:11, 8:11] = 1   # 26 surface voxels
+    >>> pred = np.roll(gt, 1, axis=0)           # moved one voxel along x: 16 of 26 coincide
+    >>> round(surface_voxel_fscore(pred, gt), 4)                 # P = R = 16 / 26
+    0.6154
+    >>> surface_voxel_fscore(pred, gt, tolerance_voxels=1)       # all within one voxel
+    1.0
+    """
+    from scipy import ndimage
+
+    if isinstance(tolerance_voxels, bool) or not np.isfinite(tolerance_voxels) \
+            or tolerance_voxels < 0:
+        raise ValueError("tolerance_voxels must be a distance in voxels >= 0 (0: surface "
+                         f"voxels must coincide), got {tolerance_voxels!r}")
+    pred, gt = _check_pair(pred, gt)
+    if pred.ndim == 4:
+        return np.array([surface_voxel_fscore(p, g, threshold, tolerance_voxels)
+                         for p, g in zip(pred, gt, strict=True)])
+    pred_surface, gt_surface = surface_voxels(pred >= threshold), surface_voxels(gt > 0.5)
+    if not pred_surface.any() or not gt_surface.any():
+        return 1.0 if pred_surface.any() == gt_surface.any() else 0.0
+    if tolerance_voxels == 0:
+        pred_hits = gt_hits = pred_surface & gt_surface
+    else:  # distance of every voxel centre to the nearest surface voxel of the other grid
+        pred_hits = pred_surface & (ndimage.distance_transform_edt(~gt_surface)
+                                    <= tolerance_voxels)
+        gt_hits = gt_surface & (ndimage.distance_transform_edt(~pred_surface)
+                                <= tolerance_voxels)
+    precision = pred_hits.sum() / pred_surface.sum()
+    recall = gt_hits.sum() / gt_surface.sum()
+    total = precision + recall
+    return 0.0 if total == 0 else float(2 * precision * recall / total)
+
+
+def category_means(values, categories) -> dict[str, float]:
+    """Mean of per-sample ``values`` ``(N,)`` over the samples of each category.
+
+    ``categories`` holds one name per sample (``(N,)``); the result is ``{category: mean}``
+    in first-seen order. This is how per-category columns of the paper's Tables I and II
+    are averaged (the overall number is the mean over all samples, not over categories).
+    Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> category_means([0.25, 0.75, 0.9], ["chair", "chair", "lamp"])
+    {'chair': 0.5, 'lamp': 0.9}
+    """
+    values = np.asarray(_to_numpy(values), dtype=float)
+    cats = np.asarray(categories)
+    if values.ndim != 1 or values.shape != cats.shape:
+        raise ValueError(f"values and categories need one entry per sample, got shapes "
+                         f"{values.shape} and {cats.shape}")
+    return {str(c): float(values[cats == c].mean()) for c in dict.fromkeys(cats)}
+
+
+def summarize(scores, categories) -> dict:
+    """Per-sample scores -> the layout of :func:`e2vlib.train.evaluate`'s result.
+
+    ``scores`` maps a metric name to per-sample values ``(N,)`` (for example the output of
+    :func:`e2vlib.train.score_predictions`), ``categories`` holds one name per sample.
+    Returns ``{"overall": {metric: mean over all samples}, "per_category": {category:
+    {metric: mean over its samples, "n": count}}}`` (categories in first-seen order), so
+    :func:`e2vlib.train.format_table` prints it in the layout of the paper's Tables I and
+    II; notebooks/07_evaluation.ipynb uses it for the per-category oracle.
+
+    Examples
+    --------
+    >>> table = summarize({"iou@0.3": [0.25, 0.75, 1.0]}, ["chair", "chair", "lamp"])
+    >>> table["overall"], table["per_category"]["chair"]
+    ({'iou@0.3': 0.6666666666666666}, {'iou@0.3': 0.5, 'n': 2})
+    """
+    per_metric = {key: category_means(values, categories) for key, values in scores.items()}
+    cats = list(dict.fromkeys(np.asarray(categories).tolist()))
+    counts = {c: int(np.sum(np.asarray(categories) == c)) for c in cats}
+    return {
+        "overall": {key: float(np.mean(_to_numpy(values))) for key, values in scores.items()},
+        "per_category": {c: {**{key: means[c] for key, means in per_metric.items()},
+                             "n": counts[c]} for c in cats},
+    }

@@ -2,7 +2,16 @@ import numpy as np
 import pytest
 import torch
 
-from e2vlib.metrics import fscore, iou, surface_points
+from e2vlib import paper
+from e2vlib.metrics import (
+    category_means,
+    fscore,
+    iou,
+    summarize,
+    surface_points,
+    surface_voxel_fscore,
+    surface_voxels,
+)
 
 
 def block(lo, hi, shape=(32, 32, 32)):
@@ -72,3 +81,79 @@ def test_fscore_refuses_no_surface_samples(n_points):
     gt[8:24, 8:24, 8:24] = 1
     with pytest.raises(ValueError, match="n_points must be a positive integer"):
         fscore(np.zeros_like(gt), gt, n_points=n_points)
+
+
+def test_surface_voxels_by_hand():
+    grid = block((8, 8, 8), (16, 16, 16)).astype(bool)  # 8^3 box: 8^3 - 6^3 = 296 on the surface
+    surface = surface_voxels(grid)
+    assert surface.sum() == 512 - 216
+    assert not surface[9:15, 9:15, 9:15].any() and surface[8, 12, 12] and surface[15, 9, 9]
+    edge = block((0, 0, 0), (2, 32, 32)).astype(bool)  # on the grid border: outside is empty
+    assert surface_voxels(edge).sum() == 2 * 32 * 32
+    assert surface_voxels(np.zeros((32, 32, 32), bool)).sum() == 0
+    with pytest.raises(ValueError, match="one \\(D, H, W\\) grid"):
+        surface_voxels(np.zeros((2, 32, 32, 32), bool))
+
+
+def test_surface_voxel_fscore_by_hand():
+    a = block((8, 8, 8), (16, 16, 16))
+    moved = block((9, 8, 8), (17, 16, 16))  # one voxel along x
+    # surfaces meet in x = 9..15: rings of 8*8 - 6*6 = 28 voxels in the 7 slices -> 196 of 296
+    assert surface_voxel_fscore(moved, a) == pytest.approx(196 / 296)
+    assert surface_voxel_fscore(moved, a, tolerance_voxels=1) == 1.0
+    assert surface_voxel_fscore(a, a) == 1.0
+    # a plate one voxel thick is all surface: coinciding surface voxels are the overlap
+    plate = block((8, 8, 8), (9, 24, 24))
+    half = block((8, 8, 8), (9, 24, 16))  # half of the plate: P = 1, R = 1/2, F = 2/3
+    assert surface_voxel_fscore(half, plate) == pytest.approx(2 / 3)
+    far = block((19, 8, 8), (27, 16, 16))  # its face x = 19 is 4 voxels from `a`'s x = 15
+    assert surface_voxel_fscore(far, a) == 0.0
+    assert surface_voxel_fscore(far, a, tolerance_voxels=3.9) == 0.0
+    # at 4 voxels only the two facing 8 x 8 faces match: P = R = 64 / 296
+    assert surface_voxel_fscore(far, a, tolerance_voxels=4) == pytest.approx(64 / 296)
+    assert surface_voxel_fscore(np.zeros_like(a), a) == 0.0
+    assert surface_voxel_fscore(np.zeros_like(a), np.zeros_like(a)) == 1.0
+
+
+def test_surface_voxel_fscore_threshold_batch_and_errors():
+    a = block((8, 8, 8), (16, 16, 16))
+    assert surface_voxel_fscore(a * paper.IOU_THRESHOLD, a) == 1.0  # inclusive threshold
+    assert surface_voxel_fscore(a * 0.29, a) == 0.0
+    moved = block((9, 8, 8), (17, 16, 16))
+    batch = surface_voxel_fscore(torch.tensor(np.stack([a, moved])), torch.tensor(np.stack([a, a])))
+    np.testing.assert_allclose(batch, [1.0, 196 / 296])
+    for bad in (-1, float("nan"), True):
+        with pytest.raises(ValueError, match="tolerance_voxels must be"):
+            surface_voxel_fscore(a, a, tolerance_voxels=bad)
+
+
+def test_fscore_at_a_fifth_of_a_voxel_rewards_coinciding_samples_only():
+    # reading (a) of the paper's F@20 %: d = 0.2 voxel; samples must (nearly) coincide
+    a = block((8, 8, 8), (24, 24, 24))
+    d = 0.2 / paper.GRID_SIDE
+    assert fscore(a, a, distance=d) == 1.0  # same grid, same seeded samples
+    shifted = block((10, 8, 8), (26, 24, 24))  # faces 2 voxels apart: nothing coincides there
+    dense = fscore(shifted, a, distance=d, n_points=8192)
+    sparse = fscore(shifted, a, distance=d, n_points=512)
+    assert sparse < dense < fscore(shifted, a, distance=0.01, n_points=8192) < 1
+
+
+def test_category_means():
+    means = category_means(np.array([0.25, 0.75, 0.9, 0.1]), ["chair", "chair", "lamp", "lamp"])
+    assert list(means) == ["chair", "lamp"]
+    assert means["chair"] == 0.5 and means["lamp"] == pytest.approx(0.5)
+    assert category_means(torch.tensor([1.0, 0.0]), ["car", "sofa"]) == {"car": 1.0, "sofa": 0.0}
+    with pytest.raises(ValueError, match="one entry per sample"):
+        category_means([0.1, 0.2], ["chair"])
+
+
+def test_summarize_matches_the_evaluate_layout():
+    from e2vlib.train import format_table
+
+    scores = {"iou@0.3": np.array([0.25, 0.75, 0.9]), "fscore@1%": torch.tensor([0.0, 1.0, 0.5])}
+    table = summarize(scores, ["chair", "chair", "lamp"])
+    assert table["overall"] == {"iou@0.3": pytest.approx(1.9 / 3), "fscore@1%": 0.5}
+    assert table["per_category"]["chair"] == {"iou@0.3": 0.5, "fscore@1%": 0.5, "n": 2}
+    assert table["per_category"]["lamp"] == {"iou@0.3": 0.9, "fscore@1%": 0.5, "n": 1}
+    text = format_table(table, keys=("iou@0.3", "fscore@1%"))
+    assert "chair" in text and "0.500" in text and text.splitlines()[-1].split()[1] == "3"
