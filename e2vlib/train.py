@@ -1,13 +1,16 @@
 """Training and evaluation of E2V: AdamW + binary cross entropy, as in the paper.
 
-:func:`fit` trains with progress bars, keeps a per-epoch history, writes ``last.pt`` and
+:func:`fit` trains (with the paper's BCE, or a focal or BCE + Dice loss from
+:mod:`e2vlib.losses`) with progress bars, keeps a per-epoch history, writes ``last.pt`` and
 ``best.pt`` (by validation IoU at :data:`e2vlib.paper.IOU_THRESHOLD`) atomically every
 epoch, stores the data config in both, resumes exactly from ``last.pt``, and runs
 data-parallel when launched with ``torchrun``. :func:`lr_schedule` is its learning rate
 per epoch. :func:`evaluate` reports the Pix2Vox protocol: IoU at
 :data:`e2vlib.paper.IOU_THRESHOLDS` and F-scores, overall (mean over samples) and per
 category, with mean-shape baselines. :class:`TensorSet` holds a split in memory and
-indexes like a dataset (``data[3]`` is an item, ``data[idx]`` a smaller TensorSet).
+indexes like a dataset (``data[3]`` is an item, ``data[idx]`` a smaller TensorSet); its
+frames are ``(N, n_frames, H, W)``, or ``(N, C, n_frames, H, W)`` for inputs of ``C``
+channels (a model built with ``in_channels=C``).
 
 Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
 """
@@ -30,10 +33,12 @@ from torch import nn
 
 from e2vlib import paper
 from e2vlib.files import atomic_path
+from e2vlib.losses import LOSSES, make_loss
 from e2vlib.metrics import fscores, iou
 from e2vlib.model import (
     E2V,
     CheckpointError,
+    E2VConfig,
     check_frames_match,
     checkpoint_data_config,
     read_checkpoint,
@@ -56,6 +61,9 @@ COSINE_FLOOR = 0.05
 
 VAL_BATCH = 16
 """Samples per forward pass when validating and predicting (no gradients: memory is small)."""
+
+LEGACY_LOSS = "bce"
+"""The loss of checkpoints written before the loss was recorded: fit only had BCE then."""
 
 
 @dataclass(frozen=True)
@@ -186,12 +194,17 @@ def resolve_device(device: str | torch.device = "auto") -> torch.device:
 class TensorSet:
     """In memory: frames uint8 ``(N, n_frames, H, W)``, voxels bool ``(N, 32, 32, 32)``.
 
+    Frames may also have a channel axis, ``(N, C, n_frames, H, W)`` (e.g. the polarity
+    representation's OFF and ON counts, for a model with ``in_channels=C``), and any dtype
+    (uint8 for binary frames, float16/float32 for counts or time surfaces): only the
+    first (sample) axis is ever indexed, and batches become float32 on the fly.
+
     ``categories`` and ``ids`` hold one string per sample; ``config`` is the dataset's
     build settings (a dict, or None), which :func:`fit` stores in its checkpoints.
     Indexing works like a dataset: ``data[i]`` (an int) is the item dict
-    ``{"frames": float32 (n_frames, H, W), "voxels": float32 (32, 32, 32), "category",
-    "id"}`` of :class:`~e2vlib.data.E2VDataset`; a slice, a sequence of ints or a boolean
-    mask gives a smaller TensorSet (:meth:`subset`).
+    ``{"frames": float32 (n_frames, H, W) (or (C, n_frames, H, W)), "voxels": float32
+    (32, 32, 32), "category", "id"}`` of :class:`~e2vlib.data.E2VDataset`; a slice, a
+    sequence of ints or a boolean mask gives a smaller TensorSet (:meth:`subset`).
 
     Examples
     --------
@@ -348,15 +361,17 @@ def fit(
     on_epoch: Callable[[list[dict]], None] | None = None,
     metadata: dict | None = None,
     data_config: dict | None = None,
+    loss: str = "bce",
     **recipe_overrides,
 ) -> list[dict]:
-    """Train ``model`` with AdamW and binary cross entropy on logits; return the history.
+    """Train ``model`` with AdamW and a loss on logits (the paper's BCE); return the history.
 
     Parameters
     ----------
     model
-        The :class:`~e2vlib.model.E2V` to train (in place); its ``input_shape`` must be
-        the data's ``(n_frames, H, W)``.
+        The :class:`~e2vlib.model.E2V` to train (in place); its ``sample_shape`` must be
+        the shape of the data's samples: ``input_shape`` = ``(n_frames, H, W)``, or
+        ``(in_channels, n_frames, H, W)`` for a model of several input channels.
     train_data, val_data
         :class:`~e2vlib.data.E2VDataset` or :class:`TensorSet` (non-empty).
     out_dir
@@ -384,6 +399,12 @@ def fit(
         The build settings of the training data (``BuildConfig.to_dict()``), stored in
         every checkpoint as ``"data_config"``; defaults to ``train_data.config`` when that
         is a dict.
+    loss
+        The training loss, one of :data:`e2vlib.losses.LOSSES`: ``"bce"`` (mean binary
+        cross-entropy, the paper's), ``"focal"`` or ``"bce_dice"``. Validation reports the
+        same loss as ``val_loss``; ``best.pt`` is still picked by validation IoU. The name
+        is stored in the checkpoints under ``"loss"``, and resuming with another loss is
+        refused.
 
     Under ``torchrun`` the model is wrapped in DistributedDataParallel and each process
     trains on its share of every batch's samples; only rank 0 writes files.
@@ -394,6 +415,10 @@ def fit(
     if epochs is not None:
         recipe_overrides = {**recipe_overrides, "epochs": epochs}
     recipe = get_recipe(recipe, **recipe_overrides)
+    if not isinstance(loss, str) or loss not in LOSSES:
+        raise ValueError(f"unknown loss {loss!r}; choose one of {', '.join(LOSSES)} "
+                         "(e2vlib.losses.LOSSES)")
+    loss_fn = make_loss(loss)
     if not _is_whole(seed):
         raise ValueError(f"seed must be a whole number, got {seed!r}")
     seed = int(seed)
@@ -404,10 +429,8 @@ def fit(
     for name, data in (("train_data", train_set), ("val_data", val_set)):
         if len(data) == 0:
             raise ValueError(f"{name} is empty; give fit at least one sample")
-    if tuple(train_set.frames.shape[1:]) != tuple(model.input_shape):
-        raise ValueError(f"the data's frames are {tuple(train_set.frames.shape[1:])} but the "
-                         f"model expects {model.input_shape}; build the model with "
-                         f"input_shape={tuple(train_set.frames.shape[1:])}")
+    for name, data in (("train_data", train_set), ("val_data", val_set)):
+        _check_sample_shape(model, tuple(data.frames.shape[1:]), name)
     if data_config is None:
         data_config = _config_dict(getattr(train_data, "config", None)) or train_set.config
     elif _config_dict(data_config) is None:
@@ -427,7 +450,7 @@ def fit(
     history: list[dict] = []
     start_epoch, best_iou = 0, -1.0
     if resume:
-        state = _read_resume_state(out_dir / "last.pt", model, data_config, device)
+        state = _read_resume_state(out_dir / "last.pt", model, data_config, device, loss)
         model.load_state_dict(state["model"])
         optimizer.load_state_dict(state["optimizer"])
         start_epoch, best_iou = int(state["epoch"]) + 1, float(state["best_iou"])
@@ -440,7 +463,6 @@ def fit(
         net = nn.parallel.DistributedDataParallel(
             model, device_ids=[device.index] if device.type == "cuda" else None)
 
-    loss_fn = nn.BCEWithLogitsLoss()
     for epoch in range(start_epoch, recipe.epochs):
         for group in optimizer.param_groups:
             group["lr"] = lr_schedule(recipe, epoch, recipe.epochs)
@@ -462,11 +484,11 @@ def fit(
                 mine = batch[:1]  # keep every process stepping in lockstep
             x = train_set.frames[mine].to(device, torch.float32)
             y = train_set.voxels[mine].to(device, torch.float32)
-            loss = loss_fn(net(x), y)
+            value = loss_fn(net(x), y)
             optimizer.zero_grad(set_to_none=True)
-            loss.backward()
+            value.backward()
             optimizer.step()
-            losses.append(loss.item())
+            losses.append(value.item())
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
         if world > 1:
             # DDP keeps parameters equal; buffers (BatchNorm running statistics) are only
@@ -484,7 +506,7 @@ def fit(
         if rank == 0:
             extra = {"optimizer": optimizer.state_dict(), "epoch": epoch,
                      "best_iou": best_iou, "history": history, "recipe": asdict(recipe),
-                     "torch_rng": torch.get_rng_state(), "seed": seed,
+                     "torch_rng": torch.get_rng_state(), "seed": seed, "loss": loss,
                      "metadata": metadata or {}}
             if device.type == "cuda":
                 extra["cuda_rng"] = torch.cuda.get_rng_state(device)
@@ -506,8 +528,34 @@ RESUME_KEYS = ("optimizer", "epoch", "best_iou", "history", "torch_rng")
 """What ``last.pt`` must hold besides the model for :func:`fit` to resume from it."""
 
 
+def _check_sample_shape(model: E2V, got: tuple[int, ...], name: str) -> None:
+    """Raise ValueError unless samples of shape ``got`` fit ``model`` (channels included)."""
+    want = tuple(getattr(model, "sample_shape", model.input_shape))
+    if got == want:
+        return
+    channels = getattr(model, "in_channels", 1)
+    if len(got) == 4 and got[0] == 1:
+        fix = None  # a channel axis of size 1: one-channel models take none
+    elif len(got) == 4:
+        fix = f"input_shape={got[1:]}, in_channels={got[0]}"
+    elif len(got) == 3:
+        fix = f"input_shape={got}" + (", in_channels=1" if channels > 1 else "")
+    else:
+        fix = None
+    layout = ("(n_frames, H, W)" if channels == 1 else "(channels, n_frames, H, W)")
+    if fix:
+        advice = f"build the model with {fix}"
+    elif len(got) == 4:
+        advice = "drop the channel axis of size 1 (frames[:, 0]): one channel has none"
+    else:
+        advice = "give frames of shape (N, n_frames, H, W) or (N, C, n_frames, H, W)"
+    raise ValueError(f"the {name} frames are {got} per sample but the model expects "
+                     f"{want} = {layout} (input_shape={tuple(model.input_shape)}, "
+                     f"in_channels={channels}); {advice}")
+
+
 def _read_resume_state(path: Path, model: E2V, data_config: dict | None,
-                       device: torch.device) -> dict:
+                       device: torch.device, loss: str = LEGACY_LOSS) -> dict:
     """Read ``last.pt`` for a resume and check it belongs to this model and data."""
     state = read_checkpoint(path, map_location=device)
     missing = [key for key in RESUME_KEYS if key not in state]
@@ -518,6 +566,10 @@ def _read_resume_state(path: Path, model: E2V, data_config: dict | None,
             "start a new run without resume (--resume) instead, e.g. into another folder.")
     ours = model.config.to_dict()
     stored = dict(state["config"])
+    try:  # fill in fields added after the checkpoint was written (in_channels, ...)
+        stored = E2VConfig.from_dict(stored).to_dict()
+    except (ValueError, TypeError):
+        pass  # not a valid config: the comparison below names what differs
     differ = sorted(k for k in ours.keys() | stored.keys() if ours.get(k) != stored.get(k))
     if differ:
         details = ", ".join(f"{k}: {stored.get(k)!r} in last.pt, {ours.get(k)!r} given"
@@ -526,6 +578,12 @@ def _read_resume_state(path: Path, model: E2V, data_config: dict | None,
             f"cannot resume from {path}: it holds a different model ({details}). Resume "
             "with the model stored there (load_checkpoint(last.pt); on the command line "
             "drop --preset), or train the new model into another folder.")
+    stored_loss = state.get("loss", LEGACY_LOSS)
+    if stored_loss != loss:
+        raise ValueError(
+            f"cannot resume from {path}: it was trained with loss={stored_loss!r}, but "
+            f"loss={loss!r} was given. Resume with loss={stored_loss!r}, or train with "
+            f"loss={loss!r} into another folder.")
     check_frames_match(checkpoint_data_config(state), data_config, path, "the training data")
     return state
 
@@ -541,7 +599,8 @@ def predict(model: E2V, frames: torch.Tensor, device: str = "auto",
         An :class:`~e2vlib.model.E2V`. It is run in eval mode on ``device`` and left as it
         was found: on its own device, in its own train/eval mode.
     frames
-        ``(N, n_frames, H, W)``, any dtype (converted to float32 batch by batch).
+        ``(N, n_frames, H, W)`` (or ``(N, C, n_frames, H, W)`` for a model with
+        ``in_channels=C``), any dtype (converted to float32 batch by batch).
     device
         Where to compute (:func:`resolve_device`; ``"auto"``: CUDA if available).
     batch_size

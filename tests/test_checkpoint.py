@@ -180,10 +180,31 @@ def test_non_finite_weights_name_the_file_and_the_first_bad_parameter(tmp_path, 
     assert kind in str(err.value)
 
 
+def legacy_checkpoint(path: Path) -> Path:
+    """A checkpoint in the format the first shipped ``tiny.pt`` had (commit 78c2ea6).
+
+    Written before digests, a top-level data config and the config fields ``in_channels``,
+    ``gru_hidden`` and ``gru_pool`` existed: float16 weights, the data config under
+    ``metadata``. The shipped file has since been retrained and rewritten with a digest, so
+    the format is rebuilt here from a tiny-preset model.
+    """
+    model = build_e2v("tiny", seed=0)
+    config = model.config.to_dict()
+    for key in ("in_channels", "gru_hidden", "gru_pool"):
+        del config[key]
+    state = {k: v.half() if v.is_floating_point() else v for k, v in model.state_dict().items()}
+    torch.save({"config": config, "model": state, "epoch": 29, "best_iou": 0.6, "seed": 0,
+                "history": [], "recipe": {},
+                "metadata": {"data_config": {"frame_size": paper.FRAME_SIZE_PX,
+                                             "resolution": 128}}}, path)
+    return path
+
+
 def test_old_checkpoints_without_a_digest_still_load(tmp_path):
-    shipped = read_checkpoint(SHIPPED)
+    old_file = legacy_checkpoint(tmp_path / "legacy_tiny.pt")
+    shipped = read_checkpoint(old_file)
     assert DIGEST_KEY not in shipped  # written before digests existed; not rewritten
-    model = load_checkpoint(SHIPPED)
+    model = load_checkpoint(old_file)
     assert model.input_shape == (paper.N_EVENT_FRAMES, paper.FRAME_SIZE_PX,
                                  paper.FRAME_SIZE_PX)
     # its data config lives under metadata, as the CLI used to store it
@@ -252,3 +273,44 @@ def test_check_frames_match_names_both_values_and_both_sources():
             check_frames_match(old, {**same, **change}, "tiny.pt", "data_fast")
     with pytest.raises(CheckpointError, match="n_frames is 100 .*; dt_us is 5000 "):
         check_frames_match(same, {**same, "dt_us": 1000, "n_frames": 500}, "a.pt", "b")
+
+
+# ----------------------------------------------------------------------------- issue 12
+
+
+def test_checkpoints_from_before_in_channels_load_as_one_channel(tmp_path):
+    old = read_checkpoint(legacy_checkpoint(tmp_path / "legacy_tiny.pt"))
+    assert "in_channels" not in old["config"]  # written before the field existed
+    for model in (load_checkpoint(tmp_path / "legacy_tiny.pt"), load_checkpoint(SHIPPED)):
+        assert model.in_channels == 1 and model.config.in_channels == 1
+        assert model.sample_shape == model.input_shape
+        assert model.encoder.stem[0].in_channels == 1
+
+
+@pytest.mark.parametrize("overrides", [{"in_channels": 2},
+                                       {"encoder": "frames2d_gru", "gru_hidden": 32},
+                                       {"encoder": "frames2d", "in_channels": 3}])
+def test_new_models_round_trip_with_identical_outputs(tmp_path, overrides):
+    model = small_model(decoder_widths=(8, 16), **overrides).eval()
+    path = save_checkpoint(tmp_path / "m.pt", model)
+    assert read_checkpoint(path)["config"]["in_channels"] == model.in_channels
+    loaded = load_checkpoint(path)
+    assert loaded.config == model.config and loaded.sample_shape == model.sample_shape
+    x = torch.rand(2, *model.sample_shape, generator=torch.Generator().manual_seed(0))
+    with torch.no_grad():
+        assert torch.equal(loaded(x), model(x))
+    # a 2-channel checkpoint cannot be loaded into a 1-channel config: the error says so
+    ckpt = read_checkpoint(path)
+    ckpt["config"]["in_channels"] = 1 if model.in_channels > 1 else 2
+    torch.save(ckpt, tmp_path / "edited.pt")
+    with pytest.raises(CheckpointError, match=r"(?s)does not match an E2V model.*"
+                                              r"size mismatch for encoder\.(net\.)?stem\.0"):
+        load_checkpoint(tmp_path / "edited.pt")
+
+
+def test_slim_checkpoint_keeps_the_training_loss(tmp_path):
+    full = save_checkpoint(tmp_path / "last.pt", small_model(in_channels=2), loss="focal",
+                           optimizer={"state": {}})
+    ckpt = read_checkpoint(slim_checkpoint(full, tmp_path / "slim.pt"))
+    assert ckpt["loss"] == "focal" and "optimizer" not in ckpt
+    assert ckpt["config"]["in_channels"] == 2

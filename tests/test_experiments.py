@@ -9,8 +9,8 @@ from e2vlib.data import BuildConfig, build_dataset
 from e2vlib.experiments import (
     STUDIES,
     best_threshold,
-    compare,
     command_line,
+    compare,
     load_split,
     run_study,
     summarize,

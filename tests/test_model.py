@@ -3,6 +3,8 @@
 Checkpoint files are tested in test_checkpoint.py.
 """
 
+from dataclasses import replace
+
 import pytest
 import torch
 
@@ -16,6 +18,7 @@ from e2vlib.model import (
     Bridge,
     E2VConfig,
     Frames2dEncoder,
+    Frames2dGRUEncoder,
     ResNetEncoder,
     UNetDecoder,
     activation_bytes,
@@ -53,6 +56,8 @@ def paper_meta():
         {"depth": 50, "base_width": 4, "decoder_widths": (8, 16)},
         {"depth": 10, "block": "bottleneck", "stem_kernel": 7, "stem_pool": False},
         {"encoder": "frames2d"},
+        {"encoder": "frames2d_gru"},
+        {"encoder": "frames2d_gru", "gru_pool": 2, "gru_hidden": 32},
         {"input_shape": (9, 20, 28)},  # odd sizes round up through every stride
     ],
 )
@@ -185,7 +190,8 @@ def test_seed_makes_weights_and_outputs_reproducible():
         assert torch.equal(p, q), name
 
 
-@pytest.mark.parametrize("overrides", [{}, {"bridge": "interp"}, {"encoder": "frames2d"}])
+@pytest.mark.parametrize("overrides", [{}, {"bridge": "interp"}, {"encoder": "frames2d"},
+                                       {"encoder": "frames2d_gru"}])
 def test_gradient_reaches_every_parameter(overrides):
     model = small_model(**overrides).train()
     g = torch.Generator().manual_seed(0)
@@ -248,7 +254,8 @@ def test_public_names_come_from_the_submodules_and_paper_constants():
     summary_module = importlib.import_module("e2vlib.model.summary")
 
     assert networks.E2V is build_e2v("tiny").__class__
-    for cls in (BasicBlock, Bottleneck, ResNetEncoder, Frames2dEncoder, Bridge, UNetDecoder):
+    for cls in (BasicBlock, Bottleneck, ResNetEncoder, Frames2dEncoder, Frames2dGRUEncoder,
+                Bridge, UNetDecoder):
         assert getattr(networks, cls.__name__) is cls
     assert checkpoint.load_checkpoint.__module__ == "e2vlib.model.checkpoint"
     assert summary_module.summary is summary
@@ -285,3 +292,161 @@ def test_frames2d_encoder_pools_the_frame_axis_into_time_bins():
     assert model.encoder_shape == (64, 4, 1, 1)
     short = small_model(encoder="frames2d", input_shape=(3, 32, 32))
     assert short.encoder_shape == (64, 3, 1, 1)  # fewer frames than bins: one bin each
+
+
+# ----------------------------------------------------------------------------- in_channels
+
+
+def _grad_check(model, x):
+    target = (torch.rand(x.shape[0], 32, 32, 32, generator=torch.Generator().manual_seed(1))
+              < 0.3).float()
+    y = model(x)
+    assert y.shape == (x.shape[0], 32, 32, 32) and torch.isfinite(y).all()
+    torch.nn.functional.binary_cross_entropy_with_logits(y, target).backward()
+    for name, p in model.named_parameters():
+        assert p.grad is not None and torch.isfinite(p.grad).all(), name
+        assert p.grad.abs().sum() > 0, f"{name} got an all-zero gradient"
+
+
+@pytest.mark.parametrize("encoder", ["resnet3d", "frames2d", "frames2d_gru"])
+def test_two_channel_input_forward_and_backward(encoder):
+    model = small_model(encoder=encoder, in_channels=2).train()
+    assert model.in_channels == 2 and model.input_shape == SMALL
+    assert model.sample_shape == (2, *SMALL) == model.config.sample_shape
+    x = (torch.rand(3, 2, *SMALL, generator=torch.Generator().manual_seed(0)) < 0.2).float()
+    _grad_check(model, x)
+    stem = model.encoder.stem[0] if encoder == "resnet3d" else model.encoder.net.stem[0]
+    assert stem.in_channels == 2
+    # both channels reach the output: changing only the ON channel changes the logits
+    model.eval()
+    y = x.clone()
+    y[:, 1] = 1 - y[:, 1]
+    with torch.no_grad():
+        assert not torch.allclose(model(x), model(y))
+
+
+@pytest.mark.parametrize(("encoder", "kernel_volume"),
+                         [("resnet3d", 27), ("frames2d", 9), ("frames2d_gru", 9)])
+@pytest.mark.parametrize("channels", [2, 3])
+def test_only_the_first_convolution_grows_with_channels(encoder, kernel_volume, channels):
+    one = small_model(encoder=encoder)
+    many = small_model(encoder=encoder, in_channels=channels)
+    base_width = one.config.base_width  # the stem's output channels (8 in tiny)
+    extra = (channels - 1) * kernel_volume * base_width  # 3x3x3 (3D) or 3x3 (2D) kernels
+    assert count_parameters(many) - count_parameters(one) == extra
+    # every other tensor has the same shape
+    a, b = one.state_dict(), many.state_dict()
+    assert a.keys() == b.keys()
+    differ = [k for k in a if a[k].shape != b[k].shape]
+    assert len(differ) == 1 and differ[0].endswith("stem.0.weight")
+    assert b[differ[0]].shape[1] == channels
+
+
+def test_channel_mismatch_errors_name_both_shapes_and_the_fix():
+    one, two = small_model(), small_model(in_channels=2)
+    with pytest.raises(ValueError, match=r"\(batch, 16, 32, 32\).*got \(2, 2, 16, 32, 32\)"
+                                         r".*in_channels=2"):
+        one(torch.rand(2, 2, *SMALL))
+    with pytest.raises(ValueError, match=r"\(batch, 2, 16, 32, 32\) = \(batch, channels, "
+                                         r"n_frames, height, width\), got \(3, 16, 32, 32\)"
+                                         r".*built for 2 input channels"):
+        two(torch.rand(3, *SMALL))
+    with pytest.raises(ValueError, match=r"got \(2, 3, 16, 32, 32\).*built for 2 input"):
+        two(torch.rand(2, 3, *SMALL))
+    with pytest.raises(ValueError, match=r"got \(2, 2, 16, 64, 64\)\. Give it"):
+        two(torch.rand(2, 2, 16, 64, 64))
+    # (2, 16, 32, 32) is one 2-channel sample, or a batch of two 1-channel ones: both named
+    with pytest.raises(ValueError, match=r"one sample \(2, 16, 32, 32\).*unsqueeze\(0\).*"
+                                         r"in_channels=2"):
+        two(torch.rand(2, *SMALL))
+    with pytest.raises(ValueError, match="in_channels must be >= 1"):
+        small_model(in_channels=0)
+
+
+def test_gru_fields_matter_only_to_the_gru_encoder():
+    # the shipped checkpoint was written while gru_pool defaulted to 2: still the tiny preset
+    assert E2VConfig(gru_pool=2, gru_hidden=8) == E2VConfig()
+    assert replace(PRESETS["tiny"], gru_pool=2) == PRESETS["tiny"]
+    assert PRESETS["tiny"].to_dict()["gru_pool"] == 1
+    gru = PRESETS["tiny_gru"]
+    assert replace(gru, gru_pool=2) != gru and replace(gru, gru_pool=2).gru_pool == 2
+
+
+def test_old_configs_without_the_new_fields_are_one_channel():
+    stored = PRESETS["tiny"].to_dict()
+    for key in ("in_channels", "gru_hidden", "gru_pool"):
+        del stored[key]
+    config = E2VConfig.from_dict(stored)
+    assert config == PRESETS["tiny"] and config.in_channels == 1
+    assert config.sample_shape == config.input_shape == (100, 64, 64)
+
+
+# ----------------------------------------------------------------------------- GRU encoder
+
+
+def test_preset_parameter_counts_are_within_2x_of_each_other():
+    counts = {name: count_parameters(build_e2v(name)) for name in ("tiny", "tiny2d",
+                                                                   "tiny_gru")}
+    assert counts == {"tiny": 2_827_829, "tiny2d": 2_680_229, "tiny_gru": 2_730_917}
+    assert max(counts.values()) <= 2 * min(counts.values())
+    gru = build_e2v("tiny_gru")
+    # the three share the decoder exactly; only the encoder and the bridge's input differ
+    assert parameter_breakdown(gru)["decoder"] == parameter_breakdown(build_e2v("tiny"))[
+        "decoder"]
+
+
+def test_tiny_gru_hand_counted_parts():
+    model = build_e2v("tiny_gru")
+    assert model.config.encoder == "frames2d_gru"
+    assert (model.config.gru_hidden, model.config.gru_pool) == (256, 1)
+    enc = model.encoder
+    assert isinstance(enc, Frames2dGRUEncoder)
+    # the same 2D ResNet-10 trunk as tiny2d
+    assert count_parameters(enc.net) == count_parameters(build_e2v("tiny2d").encoder)
+    # the 64 x 2 x 2 map, globally average-pooled -> 64 features; GRU: 3 gates x
+    # (W_i, W_h, b_i, b_h)
+    assert enc.features == 64
+    assert count_parameters(enc.gru) == 3 * (64 * 256 + 256 * 256 + 2 * 256)
+    # a 2x2 pool instead: 4x the features, 3 x 256 x 192 more input weights
+    pooled = build_e2v("tiny_gru", gru_pool=2)
+    assert pooled.encoder.features == 256
+    assert count_parameters(pooled) - count_parameters(model) == 3 * 256 * (256 - 64)
+    # the fc bridge from the 256 hidden units to a 4 x 4^3 seed
+    assert model.encoder_shape == (256, 1, 1, 1)
+    assert count_parameters(model.bridge) == 256 * 256 + 256
+
+
+def test_tiny_gru_forward_backward_on_a_small_input():
+    model = build_e2v("tiny_gru", input_shape=(20, 32, 32), seed=0).train()
+    x = (torch.rand(2, 20, 32, 32, generator=torch.Generator().manual_seed(0)) < 0.2).float()
+    _grad_check(model, x)
+
+
+def test_gru_encoder_is_the_gru_over_per_frame_features_in_time_order():
+    # 64 x 64 px: each frame's feature map is 2 x 2, pooled to 2 x 2 (gru_pool=2)
+    model = small_model(encoder="frames2d_gru", input_shape=(5, 64, 64), gru_hidden=16,
+                        gru_pool=2).eval()
+    enc = model.encoder
+    x = torch.rand(2, 1, 5, 64, 64, generator=torch.Generator().manual_seed(0))
+    with torch.no_grad():
+        # by hand: the same 2D network on every frame, 2x2 average pool, GRU over the 5
+        feats = torch.stack([torch.nn.functional.adaptive_avg_pool2d(enc.net(x[:, :, k]), 2)
+                             .flatten(1) for k in range(5)], dim=1)
+        _, h = enc.gru(feats)
+        out = enc(x)
+        assert out.shape == (2, 16, 1, 1, 1)
+        assert torch.allclose(out.flatten(1), h[0], atol=1e-6)
+        # the recurrence sees the order of the frames (max pooling over a bin would not)
+        assert not torch.allclose(enc(x.flip(2)), out, atol=1e-4)
+
+
+def test_summary_of_the_gru_model():
+    model = build_e2v("tiny_gru")
+    rows = {r["name"]: r for r in summary(model, batch_size=2)}
+    assert rows["encoder.cnn"]["shape"] == (2 * 100, 64, 2, 2)  # every frame of both
+    assert rows["encoder.gru"]["shape"] == (2, 100, 256)
+    assert rows["bridge"]["shape"] == (2, 4, 32, 32, 32)
+    assert sum(r["params"] for r in rows.values()) == count_parameters(model)
+    two = build_e2v("tiny", in_channels=2)
+    # the input saved by the first conv doubles: 2 x 100 x 64 x 64 float32 more
+    assert activation_bytes(two) - activation_bytes(build_e2v("tiny")) == 100 * 64 * 64 * 4

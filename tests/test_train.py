@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from e2vlib import paper
+from e2vlib.losses import make_loss
 from e2vlib.model import CheckpointError, build_e2v, load_checkpoint, read_checkpoint
 from e2vlib.model.checkpoint import slim_checkpoint
 from e2vlib.train import (
@@ -200,6 +201,7 @@ def test_lr_schedule_is_public_and_is_what_fit_uses(tmp_path):
     ({"lr": math.nan}, "got nan"),
     ({"recipe": "bogus"}, "unknown recipe 'bogus'; choose one of \\['paper', 'tiny'\\]"),
     ({"lrr": 1e-3}, "unknown recipe fields \\['lrr'\\]"),
+    ({"loss": "dice"}, "unknown loss 'dice'; choose one of bce, focal, bce_dice"),
 ])
 def test_fit_rejects_bad_settings_before_writing_anything(tmp_path, kwargs, message):
     out = tmp_path / "run"
@@ -285,3 +287,90 @@ def test_resume_refuses_another_model_and_a_slimmed_checkpoint(tmp_path):
     with pytest.raises(CheckpointError, match="no \\['optimizer', 'torch_rng'\\]"):
         fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "slim", epochs=2,
             resume=True, **kwargs)
+
+
+# ----------------------------------------------------------------------------- issue 12
+
+
+def two_channel_set(n=16, seed=0) -> TensorSet:
+    """Like :func:`toy_set` with (OFF, ON) channels: only the ON channel tells the cubes apart."""
+    base = toy_set(n, seed)
+    rng = np.random.default_rng(seed + 100)
+    off = (rng.random((n, *SHAPE)) < 0.3).astype(np.float16)  # noise, the same for both
+    on = base.frames.numpy().astype(np.float16)
+    frames = torch.from_numpy(np.stack([off, on], axis=1))  # (n, 2, D, H, W)
+    return TensorSet(frames, base.voxels, base.categories, base.ids)
+
+
+@pytest.mark.parametrize("loss", ["focal", "bce_dice"])
+def test_fit_with_another_loss_trains_records_and_validates_with_it(tmp_path, loss):
+    val = toy_set(8, seed=1)
+    history = fit(small_model(), toy_set(16), val, tmp_path, epochs=2, lr=1e-2,
+                  batch_size=8, loss=loss, progress=False)
+    assert [h["epoch"] for h in history] == [1, 2]
+    assert all(math.isfinite(h["train_loss"]) and math.isfinite(h["val_loss"])
+               for h in history)
+    last = read_checkpoint(tmp_path / "last.pt")
+    assert last["loss"] == loss and read_checkpoint(tmp_path / "best.pt")["loss"] == loss
+    # the reported validation loss is this loss of the final weights on the val set
+    model = load_checkpoint(tmp_path / "last.pt")
+    with torch.no_grad():
+        want = make_loss(loss)(model(val.frames.float()), val.voxels.float()).item()
+    assert history[-1]["val_loss"] == pytest.approx(want, rel=1e-5)
+    bce = make_loss("bce")(model(val.frames.float()), val.voxels.float()).item()
+    assert history[-1]["val_loss"] != pytest.approx(bce, rel=1e-3)
+
+
+def test_fit_on_two_channel_frames(tmp_path):
+    train, val = two_channel_set(16), two_channel_set(8, seed=1)
+    assert train.frames.shape == (16, 2, *SHAPE) and train[0]["frames"].shape == (2, *SHAPE)
+    model = small_model(in_channels=2)
+    history = fit(model, train, val, tmp_path, epochs=2, lr=1e-2, batch_size=8,
+                  progress=False)
+    assert len(history) == 2 and history[1]["train_loss"] < history[0]["train_loss"]
+    loaded = load_checkpoint(tmp_path / "best.pt")
+    assert loaded.in_channels == 2 and loaded.sample_shape == (2, *SHAPE)
+    probs = predict(loaded, val.frames, device="cpu", batch_size=3)
+    assert probs.shape == (8, 32, 32, 32) and ((probs >= 0) & (probs <= 1)).all()
+    result = evaluate(loaded, val, train_data=train, fscore_points=256, progress=False)
+    assert set(result["per_category"]) == set(val.categories)
+    assert len(result["per_sample"]) == 8
+
+
+def test_fit_refuses_frames_whose_channels_do_not_fit_the_model(tmp_path):
+    out = tmp_path / "run"
+    with pytest.raises(ValueError, match=r"train_data frames are \(2, 8, 16, 16\) per sample "
+                                         r"but the model expects \(8, 16, 16\).*"
+                                         r"input_shape=\(8, 16, 16\), in_channels=2"):
+        fit(small_model(), two_channel_set(4), two_channel_set(2), out, progress=False)
+    with pytest.raises(ValueError, match=r"expects \(2, 8, 16, 16\) = \(channels, n_frames, "
+                                         r"H, W\).*in_channels=1"):
+        fit(small_model(in_channels=2), toy_set(4), toy_set(2), out, progress=False)
+    with pytest.raises(ValueError, match=r"val_data frames are \(8, 16, 16\)"):
+        fit(small_model(in_channels=2), two_channel_set(4), toy_set(2), out, progress=False)
+    assert not out.exists()
+
+
+def test_resume_refuses_another_loss_and_reads_older_checkpoints(tmp_path):
+    kwargs = dict(lr=1e-2, batch_size=4, progress=False)
+    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=1, loss="focal",
+        **kwargs)
+    with pytest.raises(ValueError, match="trained with loss='focal', but loss='bce' was given"):
+        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=2, resume=True,
+            **kwargs)
+    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=2,
+                  resume=True, loss="focal", **kwargs)
+    assert len(history) == 2
+    # a last.pt written before losses and in_channels were recorded: BCE, one channel
+    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=1, **kwargs)
+    old = read_checkpoint(tmp_path / "b" / "last.pt")
+    del old["loss"]
+    for key in ("in_channels", "gru_hidden", "gru_pool"):
+        del old["config"][key]
+    torch.save(old, tmp_path / "b" / "last.pt")
+    with pytest.raises(ValueError, match="trained with loss='bce', but loss='bce_dice'"):
+        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2, resume=True,
+            loss="bce_dice", **kwargs)
+    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2,
+                  resume=True, **kwargs)
+    assert [h["epoch"] for h in history] == [1, 2]

@@ -2,14 +2,18 @@
 
 Input ``(batch, n_frames, H, W)`` float event frames (the frame axis is time), output
 ``(batch, 32, 32, 32)`` occupancy logits indexed ``[b, x, y, z]``; probabilities are
-``sigmoid(logits)``. Every public name is importable from here
+``sigmoid(logits)``; inputs of ``C > 1`` channels (``in_channels``, e.g. polarity) are
+``(batch, C, n_frames, H, W)``. Encoders: the paper's 3D ResNet (preset ``"tiny"``), and a
+per-frame 2D ResNet with temporal max pooling (``"tiny2d"``) or a GRU over time
+(``"tiny_gru"``). Every public name is importable from here
 (``from e2vlib.model import E2V, build_e2v, load_checkpoint``); the code lives in three
 modules, each with one job:
 
 =========================  =================================================================
 ``model.networks``         :class:`E2VConfig`, building blocks (:class:`BasicBlock`,
                            :class:`Bottleneck`), encoders (:class:`ResNetEncoder`,
-                           :class:`Frames2dEncoder`), :class:`Bridge`, :class:`UNetDecoder`,
+                           :class:`Frames2dEncoder`, :class:`Frames2dGRUEncoder`),
+                           :class:`Bridge`, :class:`UNetDecoder`,
                            :class:`E2V`, :data:`PRESETS`, :func:`build_e2v`,
                            :func:`count_parameters`
 ``model.checkpoint``       checkpoint files: :func:`save_checkpoint`,
@@ -63,6 +67,7 @@ from e2vlib.model.networks import (
     Bridge,
     E2VConfig,
     Frames2dEncoder,
+    Frames2dGRUEncoder,
     ResNetEncoder,
     UNetDecoder,
     build_e2v,
@@ -95,6 +100,7 @@ __all__ = [
     "CheckpointError",
     "E2VConfig",
     "Frames2dEncoder",
+    "Frames2dGRUEncoder",
     "ResNetEncoder",
     "UNetDecoder",
     "activation_bytes",

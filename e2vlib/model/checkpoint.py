@@ -49,7 +49,7 @@ LEGACY_WINDOWS = "fixed"
 """Frame grouping of configs written before ``windows`` was recorded: they all used the
 fixed clock windows of ``frames.accumulate(..., windows="fixed")``."""
 
-SLIM_KEEP = ("history", "metadata", "recipe", "epoch", "best_iou", "seed")
+SLIM_KEEP = ("history", "metadata", "recipe", "epoch", "best_iou", "seed", "loss")
 """Entries :func:`slim_checkpoint` copies by default (besides config, weights, data config)."""
 
 

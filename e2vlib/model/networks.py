@@ -5,7 +5,13 @@ volume ``(n_frames, H, W)`` (the first axis is the frame axis, i.e. time) and ma
 32^3 occupancy logits in three parts:
 
 1. **encoder** -- a ResNet whose 2D convolutions are all replaced by 3D ones (the paper
-   uses ResNet-152), so a 3x3x3 kernel sees 3 consecutive frames of a 3x3 patch;
+   uses ResNet-152), so a 3x3x3 kernel sees 3 consecutive frames of a 3x3 patch
+   (``"resnet3d"``). Two alternatives the paper names as future work use a 2D ResNet on
+   every frame separately (weights shared over time) and mix time afterwards: by max
+   pooling the frames' feature maps into a few time bins (``"frames2d"``,
+   :class:`Frames2dEncoder`), or with a GRU that reads one feature vector per frame in time
+   order (``"frames2d_gru"``, :class:`Frames2dGRUEncoder`: the paper's "LSTM or GRU
+   variants");
 2. **bridge** -- brings the encoder's ``(c, t, h, w)`` output (``t``: the frame axis after
    striding) to a hidden volume ``(C, 32, 32, 32)``;
 3. **decoder** -- a UNet-like 3D network inspired by the Pix2Vox++ refiner (3D conv down
@@ -14,7 +20,11 @@ volume ``(n_frames, H, W)`` (the first axis is the frame axis, i.e. time) and ma
 
 Shapes: input ``(batch, n_frames, H, W)`` float, output ``(batch, 32, 32, 32)`` logits
 indexed ``[b, x, y, z]``; probabilities are ``sigmoid(logits)``. ``E2V.input_shape`` is
-the ``(D, H, W)`` of the design note with ``D = n_frames``. Two different "depths" appear
+the ``(D, H, W)`` of the design note with ``D = n_frames``. Inputs of several channels
+per pixel and time step (``in_channels = C > 1``, e.g. the OFF and ON counts of the
+``polarity`` representation) are ``(batch, C, n_frames, H, W)`` and enter the same network
+with only its first convolution widened to ``C`` input channels; ``E2V.sample_shape`` is
+``(C, D, H, W)`` then (``(D, H, W)`` for one channel). Two different "depths" appear
 here and must not be confused: the frame axis (time, ``n_frames`` long) and the ResNet
 depth (number of layers, :attr:`E2VConfig.depth`, alias :attr:`E2VConfig.resnet_depth`).
 
@@ -22,8 +32,9 @@ The paper gives the encoder, the hidden-volume idea, the decoder style and the t
 :data:`e2vlib.paper.N_PARAMETERS` parameters, but not the decoder's widths; every choice
 made here is written next to the code that makes it. Presets: ``"paper"`` (149.8 M
 parameters, input 100 x 256 x 256), ``"tiny"`` (2.8 M, input 100 x 64 x 64, trains on a
-laptop CPU) and ``"tiny2d"`` (tiny with a per-frame 2D encoder, the paper's suggested
-future work).
+laptop CPU), and two of the paper's suggested future-work encoders at tiny size:
+``"tiny2d"`` (per-frame 2D CNN, temporal max pooling; 2.7 M) and ``"tiny_gru"`` (per-frame
+2D CNN + GRU; 2.7 M).
 
 Introduced in notebooks/05_the_e2v_model.ipynb.
 """
@@ -59,7 +70,7 @@ RESNET_LAYERS: dict[int, tuple[str, tuple[int, int, int, int]]] = {
 }
 """ResNet depth -> (default block type, residual blocks per stage), as in He et al. 2016."""
 
-ENCODERS = ("resnet3d", "frames2d")
+ENCODERS = ("resnet3d", "frames2d", "frames2d_gru")
 BRIDGES = ("reshape", "interp", "fc")
 BOTTLENECKS = ("fc", "conv", "none")
 NORMS = ("batch", "group")
@@ -74,8 +85,12 @@ class E2VConfig:
 
     - ``input_shape``: ``(n_frames, height, width)`` of one sample; the first axis is the
       frame axis (time), the ``D`` of the design note's ``(D, H, W)``.
-    - ``encoder``: ``"resnet3d"`` (the paper) or ``"frames2d"`` (a per-frame 2D CNN whose
-      features are pooled over time, the paper's suggested future work).
+    - ``encoder``: ``"resnet3d"`` (the paper), ``"frames2d"`` (a per-frame 2D CNN whose
+      feature maps are max-pooled over time) or ``"frames2d_gru"`` (the same per-frame 2D
+      CNN, each frame's feature map average-pooled to ``gru_pool x gru_pool`` and
+      flattened into one vector, read in time order by a one-layer GRU of ``gru_hidden``
+      units whose final hidden state goes to the bridge); the last two are the paper's
+      suggested future work.
     - ``depth``: the **ResNet depth** (number of layers: 10, 18, 34, 50, 101 or 152), not
       the frame axis; also readable as :attr:`resnet_depth`. ``block``: ``"basic"``,
       ``"bottleneck"`` or ``"auto"`` (the standard block for that ResNet depth).
@@ -93,9 +108,20 @@ class E2VConfig:
       Pix2Vox++), ``"conv"`` (one 3x3x3 conv) or ``"none"``.
     - ``norm``: ``"batch"`` (BatchNorm) or ``"group"`` (GroupNorm, independent of batch size).
     - ``dropout``: dropout probability before the fully connected layers.
+    - ``in_channels``: values per pixel and time step of the input (1: binary or count
+      frames, input ``(B, n_frames, H, W)``; 2: the polarity representation's OFF and ON
+      counts, input ``(B, 2, n_frames, H, W)``). Only the first convolution depends on it
+      (``in_channels`` times its weights); everything else is unchanged.
+    - ``gru_hidden``, ``gru_pool``: hidden units of the GRU and side of the average pool of
+      each frame's 2D feature map (1: global average pool, ``c`` features per frame;
+      2: a 2x2 pool flattened, ``4c``); used by ``encoder="frames2d_gru"`` only. With
+      another encoder they are stored as their defaults whatever is given, so two configs
+      are equal exactly when they build the same network.
 
     The field is called ``depth`` because checkpoints store it under that key; old
-    checkpoints keep loading. :meth:`from_dict` also accepts ``resnet_depth``.
+    checkpoints keep loading. :meth:`from_dict` also accepts ``resnet_depth``. Fields added
+    later (``in_channels``, ``gru_hidden``, ``gru_pool``) take their defaults when a stored
+    config lacks them, so older checkpoints load as one-channel models.
 
     Examples
     --------
@@ -125,11 +151,18 @@ class E2VConfig:
     bottleneck_features: int = 256
     norm: str = "batch"
     dropout: float = 0.0
+    in_channels: int = 1
+    gru_hidden: int = 256
+    gru_pool: int = 1
 
     def __post_init__(self) -> None:
         # Accept lists (a config read back from JSON or a checkpoint) and store tuples.
         object.__setattr__(self, "input_shape", tuple(int(v) for v in self.input_shape))
         object.__setattr__(self, "decoder_widths", tuple(int(v) for v in self.decoder_widths))
+        if self.encoder != "frames2d_gru":  # unused: keep the defaults (see the docstring)
+            for f in fields(self):
+                if f.name in _GRU_FIELDS:
+                    object.__setattr__(self, f.name, f.default)
         problems = []
         if len(self.input_shape) != 3 or min(self.input_shape) < 1:
             problems.append(
@@ -145,7 +178,7 @@ class E2VConfig:
         _check_choice(problems, "bottleneck", self.bottleneck, BOTTLENECKS)
         _check_choice(problems, "norm", self.norm, NORMS)
         for name in ("base_width", "stem_kernel", "stem_stride", "hidden_channels", "seed_size",
-                     "bottleneck_features"):
+                     "bottleneck_features", "in_channels", "gru_hidden", "gru_pool"):
             if int(getattr(self, name)) < 1:
                 problems.append(f"{name} must be >= 1, got {getattr(self, name)}")
         if self.stem_kernel % 2 == 0:
@@ -175,6 +208,13 @@ class E2VConfig:
         return self.input_shape[0]
 
     @property
+    def sample_shape(self) -> tuple[int, ...]:
+        """Shape of one input sample: ``input_shape``, with ``in_channels`` first if > 1."""
+        if self.in_channels == 1:
+            return self.input_shape
+        return (self.in_channels, *self.input_shape)
+
+    @property
     def block_type(self) -> str:
         """The residual block actually used (``"basic"`` or ``"bottleneck"``)."""
         return RESNET_LAYERS[self.depth][0] if self.block == "auto" else self.block
@@ -198,6 +238,10 @@ class E2VConfig:
         if unknown:
             raise ValueError(f"unknown E2V config keys {unknown}; valid keys: {sorted(known)}")
         return cls(**d)
+
+
+_GRU_FIELDS = ("gru_hidden", "gru_pool")
+"""Fields only ``encoder="frames2d_gru"`` uses."""
 
 
 def _check_choice(problems: list[str], name: str, value: object, choices: tuple) -> None:
@@ -263,6 +307,16 @@ PRESETS: dict[str, E2VConfig] = {
 # frame separately (weights shared over time) and time is only max-pooled into 4 bins, so
 # the lesson can compare it with 3D convolutions that mix neighbouring frames from layer 1.
 PRESETS["tiny2d"] = replace(PRESETS["tiny"], encoder="frames2d")
+# The paper's "LSTM or GRU variants" at tiny size: the same per-frame 2D ResNet-10; each
+# frame's 64 x 2 x 2 feature map (at 64 x 64 px) is globally average-pooled into 64
+# features, a GRU of 256 units reads the 100 vectors in time order, and its final state
+# goes through the same fully connected bridge (256 -> 4 x 4^3). In a quick check (one
+# seed, 8 training samples per category, 6 epochs of the tiny recipe) this learned (train
+# BCE 0.76 -> 0.27, val IoU@0.3 up to 0.14) while a 2x2 pool (256 features, gru_pool=2)
+# stayed at the trivial solution (train BCE ~0.70, val IoU 0.099 throughout).
+# 2.73 M parameters, 0.97x tiny's.
+PRESETS["tiny_gru"] = replace(PRESETS["tiny"], encoder="frames2d_gru", gru_hidden=256,
+                              gru_pool=1)
 """Named configurations for :func:`build_e2v`."""
 
 
@@ -342,10 +396,10 @@ def _shortcut(c_in: int, c_out: int, stride: int, norm: str, dim: int) -> nn.Mod
 class ResNetEncoder(nn.Module):
     """A ResNet trunk (no classifier) in 3D (the paper: every 2D op made 3D) or in 2D.
 
-    3D: input ``(B, 1, n_frames, H, W)``, output ``(B, out_channels, t, h, w)`` with each
+    3D: input ``(B, C, n_frames, H, W)``, output ``(B, out_channels, t, h, w)`` with each
     of t (the frame axis), h, w shrunk about 32x (16x without the stem pool). 2D:
-    ``(N, 1, H, W)`` ->
-    ``(N, out_channels, h, w)``. Stages: ``stem``, ``layer1`` .. ``layer4``.
+    ``(N, C, H, W)`` -> ``(N, out_channels, h, w)``. ``C`` is ``config.in_channels``: only
+    the stem's convolution depends on it. Stages: ``stem``, ``layer1`` .. ``layer4``.
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 
@@ -355,7 +409,7 @@ class ResNetEncoder(nn.Module):
         n_blocks = RESNET_LAYERS[config.depth][1]
         w = config.base_width
         stem: list[nn.Module] = [
-            _conv(dim, 1, w, config.stem_kernel, config.stem_stride),
+            _conv(dim, config.in_channels, w, config.stem_kernel, config.stem_stride),
             _norm(config.norm, w, dim),
             nn.ReLU(inplace=True),
         ]
@@ -390,8 +444,18 @@ class ResNetEncoder(nn.Module):
         return self.layer4(self.layer3(self.layer2(self.layer1(x))))
 
 
+def _per_frame(net: nn.Module, x: torch.Tensor) -> torch.Tensor:
+    """Run a 2D ``net`` on every frame of ``x`` ``(B, C, n_frames, H, W)``.
+
+    Returns ``(B, n_frames, c, h, w)``: every frame is one item of the 2D network's batch.
+    """
+    b, c, n_frames, h, w = x.shape
+    y = net(x.transpose(1, 2).reshape(b * n_frames, c, h, w))
+    return y.reshape(b, n_frames, *y.shape[1:])
+
+
 class Frames2dEncoder(nn.Module):
-    """Per-frame 2D ResNet shared over time, then max over time: ``(B, 1, n_frames, H, W)`` in.
+    """Per-frame 2D ResNet shared over time, then max over time: ``(B, C, n_frames, H, W)`` in.
 
     The alternative the paper names as future work: each frame is encoded on its own by a
     2D ResNet (same depth/width options as the 3D one), and time is mixed only by max
@@ -413,11 +477,42 @@ class Frames2dEncoder(nn.Module):
         return (c, min(self.time_bins, input_shape[0]), h, w)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        b, _, n_frames, h, w = x.shape
-        # (B * n_frames, c, h', w'): every frame is one item of the 2D network's batch
-        y = self.net(x.reshape(b * n_frames, 1, h, w))
-        y = y.reshape(b, n_frames, *y.shape[1:]).transpose(1, 2)  # (B, c, n_frames, h', w')
+        n_frames = x.shape[2]
+        y = _per_frame(self.net, x).transpose(1, 2)  # (B, c, n_frames, h', w')
         return F.adaptive_max_pool3d(y, (min(self.time_bins, n_frames), *y.shape[-2:]))
+
+
+class Frames2dGRUEncoder(nn.Module):
+    """Per-frame 2D ResNet shared over time, then a GRU over time: ``(B, C, n_frames, H, W)`` in.
+
+    The paper's suggested "LSTM or GRU variants": each frame is encoded on its own by the
+    2D ResNet of :class:`Frames2dEncoder`; its feature map ``(c, h, w)`` is average-pooled
+    to ``gru_pool x gru_pool`` and flattened into ``features = c * gru_pool**2`` numbers; a
+    one-layer GRU with ``gru_hidden`` units reads these vectors in time order (frame 0
+    first), and its final hidden state is the output, ``(B, gru_hidden, 1, 1, 1)`` (shaped
+    like the other encoders' ``(B, c, t, h, w)`` for the bridge). Time is mixed only by the
+    recurrence, so the order of the frames matters, unlike max pooling.
+    Introduced in notebooks/10_architectures_and_losses.ipynb.
+    """
+
+    def __init__(self, config: E2VConfig) -> None:
+        super().__init__()
+        self.net = ResNetEncoder(config, dim=2)
+        self.pool = config.gru_pool
+        self.features = self.net.out_channels * self.pool**2
+        self.gru = nn.GRU(self.features, config.gru_hidden, num_layers=1, batch_first=True)
+        self.out_channels = config.gru_hidden
+
+    def output_shape(self, input_shape: tuple[int, int, int]) -> tuple[int, int, int, int]:
+        """``(gru_hidden, 1, 1, 1)``: the final hidden state, for any ``(n_frames, H, W)``."""
+        return (self.out_channels, 1, 1, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        y = _per_frame(self.net, x)  # (B, n_frames, c, h', w')
+        b, n_frames = y.shape[:2]
+        y = F.adaptive_avg_pool2d(y.flatten(0, 1), self.pool).reshape(b, n_frames, -1)
+        _, last = self.gru(y)  # last: (num_layers = 1, B, gru_hidden)
+        return last[-1].reshape(b, self.out_channels, 1, 1, 1)
 
 
 # --------------------------------------------------------------------------- bridge
@@ -553,8 +648,10 @@ class E2V(nn.Module):
     Build with :func:`build_e2v` or ``E2V(E2VConfig(...))``. ``input_shape`` is the
     ``(D, H, W)`` = ``(n_frames, height, width)`` every input must have (``D`` is the frame
     axis, time; the ResNet depth is ``config.resnet_depth``); ``config`` the
-    :class:`E2VConfig` it was built from. Sub-modules: ``encoder``, ``bridge``,
-    ``decoder``, ``head`` (1x1x1 conv to one logit per voxel).
+    :class:`E2VConfig` it was built from. With ``in_channels = C > 1`` inputs are
+    ``(B, C, n_frames, H, W)``; ``sample_shape`` is the shape of one sample either way.
+    Sub-modules: ``encoder``, ``bridge``, ``decoder``, ``head`` (1x1x1 conv to one logit
+    per voxel).
 
     Examples
     --------
@@ -563,6 +660,9 @@ class E2V(nn.Module):
     ((16, 32, 32), 16)
     >>> model.eval()(torch.zeros(1, 16, 32, 32)).shape
     torch.Size([1, 32, 32, 32])
+    >>> two = E2V(E2VConfig(input_shape=(16, 32, 32), in_channels=2))  # e.g. OFF and ON
+    >>> two.sample_shape, two.eval()(torch.zeros(1, 2, 16, 32, 32)).shape
+    ((2, 16, 32, 32), torch.Size([1, 32, 32, 32]))
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
@@ -571,10 +671,13 @@ class E2V(nn.Module):
         super().__init__()
         self.config = config
         self.input_shape: tuple[int, int, int] = config.input_shape
+        self.in_channels: int = config.in_channels
         if config.encoder == "resnet3d":
             self.encoder: nn.Module = ResNetEncoder(config, dim=3)
-        else:
+        elif config.encoder == "frames2d":
             self.encoder = Frames2dEncoder(config)
+        else:
+            self.encoder = Frames2dGRUEncoder(config)
         self.encoder_shape = self.encoder.output_shape(config.input_shape)
         if min(self.encoder_shape) < 1:
             raise ValueError(f"input_shape {config.input_shape} is too small for this encoder")
@@ -589,6 +692,11 @@ class E2V(nn.Module):
         """Length of the frame axis (time) of the input, ``input_shape[0]``."""
         return self.input_shape[0]
 
+    @property
+    def sample_shape(self) -> tuple[int, ...]:
+        """Shape of one input sample: ``input_shape``, or ``(in_channels, *input_shape)``."""
+        return self.config.sample_shape
+
     def _init_weights(self) -> None:
         for m in self.modules():
             if isinstance(m, nn.Conv3d | nn.Conv2d | nn.ConvTranspose3d):
@@ -599,30 +707,52 @@ class E2V(nn.Module):
         nn.init.zeros_(self.head.bias)
 
     def check_input(self, x: torch.Tensor) -> None:
-        """Raise ValueError unless ``x`` is a float tensor ``(batch, *input_shape)``."""
-        want = "(batch, " + ", ".join(str(v) for v in self.input_shape) + ")"
+        """Raise ValueError unless ``x`` is a float tensor ``(batch, *sample_shape)``.
+
+        The message names the expected and the given shape, and how to fix the mismatch.
+        """
+        shape = self.sample_shape
+        want = "(batch, " + ", ".join(str(v) for v in shape) + ")"
         if not isinstance(x, torch.Tensor):
             raise ValueError(f"E2V expects a torch.Tensor {want}, got {type(x).__name__}; "
                              "convert with torch.as_tensor(x, dtype=torch.float32)")
         got = tuple(x.shape)
-        if x.ndim == 3 and got == self.input_shape:
+        if x.ndim == len(shape) and got == shape:
+            also = ("" if self.in_channels == 1 else
+                    f" (if these are {got[0]} one-channel samples instead: this model was "
+                    f"built for {self.in_channels} input channels, in_channels="
+                    f"{self.in_channels})")
             raise ValueError(f"E2V expects a batch {want}, got one sample {got}; "
-                             "add the batch axis with x.unsqueeze(0)")
-        if x.ndim != 4 or got[1:] != self.input_shape:
+                             f"add the batch axis with x.unsqueeze(0){also}")
+        if x.ndim != len(shape) + 1 or got[1:] != shape:
+            c = self.in_channels
+            axes = ("(batch, n_frames, height, width)" if c == 1
+                    else "(batch, channels, n_frames, height, width)")
+            if c == 1 and x.ndim == 5:
+                channels = (f" This model takes one channel (in_channels=1, no channel "
+                            f"axis); for inputs of {got[1]} channels build one with "
+                            f"in_channels={got[1]}.")
+            elif c > 1 and (x.ndim == 4 or got[1] != c):
+                channels = (f" This model was built for {c} input channels "
+                            f"(in_channels={c}), given as the axis after the batch.")
+            else:
+                channels = ""
             raise ValueError(
-                f"E2V expects input shape {want} = (batch, n_frames, height, width), got "
-                f"{got}. Give it frames of input_shape={self.input_shape}, the number of "
-                "frames (the frame axis, time) and "
+                f"E2V expects input shape {want} = {axes}, got {got}.{channels} Give it "
+                f"frames of input_shape={self.input_shape}, the number of frames (the frame "
+                "axis, time) and "
                 "resolution it was built for (e2vlib.frames.downsample lowers the resolution), "
-                "or build a model for your shape with build_e2v(preset, input_shape=...)"
+                "or build a model for your shape with build_e2v(preset, input_shape=..., "
+                "in_channels=...)"
             )
         if not x.is_floating_point():
             raise ValueError(f"E2V expects a float tensor, got dtype {x.dtype}; use x.float()")
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """``(B, n_frames, H, W)`` float -> logits ``(B, 32, 32, 32)`` indexed ``[b, x, y, z]``."""
+        """``(B, n_frames, H, W)`` (or ``(B, C, n_frames, H, W)`` for ``in_channels`` C > 1)
+        float -> logits ``(B, 32, 32, 32)`` indexed ``[b, x, y, z]``."""
         self.check_input(x)
-        z = self.encoder(x.unsqueeze(1))
+        z = self.encoder(x.unsqueeze(1) if self.in_channels == 1 else x)
         h = self.bridge(z)
         return self.head(self.decoder(h)).squeeze(1)
 
@@ -634,14 +764,17 @@ def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -
     ----------
     preset
         ``"tiny"`` (input 100 x 64 x 64, 2.8 M parameters), ``"tiny2d"`` (the same with a
-        per-frame 2D encoder) or ``"paper"`` (100 x 256 x 256, 149.8 M; build it under
-        ``with torch.device("meta"):`` to inspect it without allocating 600 MB).
+        per-frame 2D encoder and temporal max pooling, 2.7 M), ``"tiny_gru"`` (per-frame
+        2D encoder and a GRU over time, 2.7 M) or ``"paper"`` (100 x 256 x 256, 149.8 M;
+        build it under ``with torch.device("meta"):`` to inspect it without allocating
+        600 MB).
     seed
         If given, weights are initialised from ``torch.manual_seed(seed)`` without
         touching the global random state.
     **overrides
         Any :class:`E2VConfig` field, e.g. ``input_shape=(20, 64, 64)`` (``(n_frames,
-        height, width)``); ``resnet_depth=`` is accepted for ``depth=``.
+        height, width)``) or ``in_channels=2`` (inputs ``(B, 2, n_frames, H, W)``);
+        ``resnet_depth=`` is accepted for ``depth=``.
 
     Returns
     -------
@@ -658,6 +791,9 @@ def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -
     >>> small = build_e2v("tiny", input_shape=(20, 32, 32), resnet_depth=18)
     >>> small.config.resnet_depth, small(torch.zeros(2, 20, 32, 32)).shape
     (18, torch.Size([2, 32, 32, 32]))
+    >>> gru = build_e2v("tiny_gru", input_shape=(20, 32, 32), seed=0)
+    >>> gru.encoder_shape, gru(torch.zeros(2, 20, 32, 32)).shape
+    ((256, 1, 1, 1), torch.Size([2, 32, 32, 32]))
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """

@@ -14,7 +14,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from e2vlib.model.networks import E2V, ResNetEncoder, count_parameters
+from e2vlib.model.networks import E2V, Frames2dGRUEncoder, ResNetEncoder, count_parameters
 
 
 def parameter_breakdown(model: E2V) -> dict[str, int]:
@@ -41,6 +41,8 @@ def _stages(model: E2V) -> list[tuple[str, nn.Module]]:
         stages = [("encoder.stem", enc.stem)] + [
             (f"encoder.layer{i}", getattr(enc, f"layer{i}")) for i in range(1, 5)
         ]
+    elif isinstance(enc, Frames2dGRUEncoder):
+        stages = [("encoder.cnn", enc.net), ("encoder.gru", enc.gru)]
     else:
         stages = [("encoder", enc)]
     stages.append(("bridge", model.bridge))
@@ -56,9 +58,10 @@ def summary(model: E2V, batch_size: int = 1) -> list[dict[str, Any]]:
     """Stage-by-stage table of an E2V for a batch of ``batch_size`` inputs.
 
     One dict per stage, in forward order: ``name``, ``shape`` (output shape, batch axis
-    included), ``params`` and ``saved_bytes`` (bytes of the activations autograd keeps
-    inside that stage for the backward pass of a training step, weights excluded). Runs on
-    a meta-device copy built from ``model.config``, so it allocates nothing and takes about
+    included; the per-frame encoders' 2D stages see ``batch_size * n_frames`` frames),
+    ``params`` and ``saved_bytes`` (bytes of the activations autograd keeps inside that
+    stage for the backward pass of a training step, weights excluded). Runs on a
+    meta-device copy built from ``model.config``, so it allocates nothing and takes about
     a second even for the paper preset, whatever device ``model`` lives on.
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
@@ -98,7 +101,9 @@ def _profile(model: E2V, batch_size: int) -> tuple[list[dict[str, Any]], int]:
         def pre_hook(_m: nn.Module, _i: Any, name: str = name) -> None:
             current[0] = name
 
-        def post_hook(_m: nn.Module, _i: Any, out: torch.Tensor, name: str = name) -> None:
+        def post_hook(_m: nn.Module, _i: Any, out: Any, name: str = name) -> None:
+            if isinstance(out, tuple):  # a GRU returns (outputs, final state)
+                out = out[0]
             rows[name]["shape"] = tuple(out.shape)
 
         handles.append(stage.register_forward_pre_hook(pre_hook))
@@ -118,7 +123,7 @@ def _profile(model: E2V, batch_size: int) -> tuple[list[dict[str, Any]], int]:
 
     try:
         with torch.autograd.graph.saved_tensors_hooks(pack, lambda t: t):
-            out = twin(torch.empty(batch_size, *twin.input_shape, device="meta"))
+            out = twin(torch.empty(batch_size, *twin.sample_shape, device="meta"))
     finally:
         for handle in handles:
             handle.remove()
