@@ -21,7 +21,7 @@ lab: $(STAMP)
 	$(VENV)/bin/jupyter lab notebooks/
 
 test: $(STAMP) lint
-	$(QUICK_ENV) $(PY) -m pytest --doctest-modules e2vlib tests notebooks --nbmake --nbmake-timeout=600
+	$(QUICK_ENV) $(PY) -m pytest --doctest-modules e2vlib tests notebooks --nbmake --nbmake-timeout=600 --durations=25
 
 unit: $(STAMP)
 	$(QUICK_ENV) $(PY) -m pytest --doctest-modules e2vlib tests
