@@ -266,8 +266,10 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
     import torch
 
     from e2vlib.inputs import input_channels
+    from e2vlib.metrics import iou
+    from e2vlib.metrics import summarize as summarize_scores
     from e2vlib.model import build_e2v, load_checkpoint
-    from e2vlib.train import evaluate, fit, predict, resolve_device
+    from e2vlib.train import fit, predict, resolve_device, score_predictions
 
     torch.set_num_threads(int(protocol["threads"]))
     train = load_split(protocol, "train", progress)
@@ -286,11 +288,11 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
         best = load_checkpoint(Path(tmp) / "best.pt")
     val_probabilities = predict(best, val.frames, device)
     threshold = best_threshold(val_probabilities, val.voxels)
-    result = evaluate(best, test, device=device, progress=False)
-    metrics = {k: float(v) for k, v in result["overall"].items()}
+    # the test predictions once, scored as evaluate() scores them
     test_probabilities = predict(best, test.frames, device)
-    from e2vlib.metrics import iou
-
+    result = summarize_scores(score_predictions(test_probabilities, test.voxels),
+                              test.categories)
+    metrics = {k: float(v) for k, v in result["overall"].items()}
     metrics["val_threshold"] = threshold
     metrics["iou@val_threshold"] = float(np.mean(iou(test_probabilities, test.voxels,
                                                      threshold=threshold)))

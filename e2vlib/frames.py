@@ -108,8 +108,24 @@ def paper_group_bounds(t: np.ndarray, dt_us: int, start: int = 0,
     while bounds[-1] < len(t) and len(bounds) - 1 < limit:
         group_start = int(t[bounds[-1]])
         # first event with t > t_j + dt, i.e. t >= t_j + dt + 1 (integer microseconds)
-        bounds.append(int(searchsorted_left(t, [group_start + dt_us + 1])[0]))
+        bounds.append(_first_at_least(t, bounds[-1], group_start + dt_us + 1))
     return np.asarray(bounds, dtype=np.int64)
+
+
+def _first_at_least(t: np.ndarray, start: int, value: int) -> int:
+    """First index ``>= start`` with ``t[index] >= value`` (``t`` sorted).
+
+    Searches blocks growing from ``start`` (a group rarely spans many events), so each call
+    copies only about as many times as the group holds, not the whole strided column.
+    """
+    size = 1024
+    while start < len(t):
+        block = np.asarray(t[start:start + size])
+        if block[-1] >= value:
+            return start + int(np.searchsorted(block, value, side="left"))
+        start += len(block)
+        size *= 4
+    return len(t)
 
 
 def _window_offsets(t: np.ndarray, t0: int, dt: int, frame_elements: int) -> np.ndarray | int:

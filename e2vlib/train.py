@@ -35,6 +35,7 @@ from e2vlib import paper
 from e2vlib.files import atomic_path
 from e2vlib.losses import LOSSES, make_loss
 from e2vlib.metrics import fscores, iou
+from e2vlib.metrics import summarize as summarize_scores
 from e2vlib.model import (
     E2V,
     CheckpointError,
@@ -662,14 +663,8 @@ def score_predictions(probabilities: torch.Tensor, voxels: torch.Tensor,
 
 
 def _summarize(scores: dict[str, np.ndarray], categories: Sequence[str]) -> tuple[dict, dict]:
-    overall = {key: float(np.mean(values)) for key, values in scores.items()}
-    per_category = {}
-    cats = np.asarray(categories)
-    for category in dict.fromkeys(categories):  # first-seen order
-        sel = cats == category
-        per_category[category] = {key: float(np.mean(v[sel])) for key, v in scores.items()}
-        per_category[category]["n"] = int(sel.sum())
-    return overall, per_category
+    table = summarize_scores(scores, categories)
+    return table["overall"], table["per_category"]
 
 
 def evaluate(

@@ -11,18 +11,16 @@ import numpy as np
 import torch
 
 from e2vlib.data import E2VDataset
-from e2vlib.metrics import iou
+from e2vlib.metrics import category_means, iou
 from e2vlib.train import category_mean_shapes, preload
 
 root, out = sys.argv[1], sys.argv[2]
 train, test = preload(E2VDataset(root, "train")), preload(E2VDataset(root, "test"))
 means = category_mean_shapes(train)
 res = {}
-cats = np.asarray(test.categories)
-for c in sorted(set(test.categories), key=list(dict.fromkeys(test.categories)).index):
-    idx = np.flatnonzero(cats == c)
-    gt = test.voxels[torch.from_numpy(idx)].float()
-    oracle = float(np.mean(iou(means[c].expand(len(idx), -1, -1, -1), gt, 0.3)))
+guess = torch.stack([means[c] for c in test.categories])
+oracle_of = category_means(iou(guess, test.voxels, 0.3), test.categories)
+for c, oracle in oracle_of.items():
     lab = train.voxels[torch.from_numpy(np.flatnonzero(np.asarray(train.categories) == c))].numpy()
     pair = [
         iou(lab[i].astype(np.float32), lab[j], 0.5)
