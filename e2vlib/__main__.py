@@ -455,7 +455,7 @@ def _experiment(args: argparse.Namespace) -> int:
     out = args.out or (DEFAULT_OUT.parent / "results-quick" if args.quick else DEFAULT_OUT)
     _output_folder(str(out), "--out")
     path = run_study(args.study, args.configs, args.seeds, out, device=args.device,
-                     quick=args.quick)
+                     quick=args.quick, reuse=not args.no_reuse)
     print(f"{path}:")
     print(format_summary(summarize(path)))
     return 0
@@ -555,6 +555,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--device", default="auto", help=f"one of {DEVICES} (default auto)")
     p.add_argument("--quick", action="store_true",
                    help="a tiny protocol for checks: 2 samples per category, 1 epoch, 32 px")
+    p.add_argument("--no-reuse", action="store_true",
+                   help="train every run, even one whose full protocol and seed another "
+                        "study in --out already recorded (default: copy that record)")
     p.set_defaults(func=_experiment)
     return parser
 

@@ -334,7 +334,7 @@ def _write(path: Path, results: dict) -> None:
 
 
 def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int],
-                 quick: bool) -> str:
+                 quick: bool, reuse: bool = True) -> str:
     """The command that reproduces (or resumes) a study."""
     parts = ["python -m e2vlib experiment", study]
     if configs:
@@ -342,18 +342,51 @@ def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int]
     parts += ["--seeds", *map(str, seeds)]
     if quick:
         parts.append("--quick")
+    if not reuse:
+        parts.append("--no-reuse")
     return " ".join(parts)
+
+
+def find_same_run(out: Path, protocol: dict, seed: int, device: str,
+                  exclude: Path | None = None) -> dict | None:
+    """A run recorded in another study file of ``out`` with exactly this full ``protocol``
+    (its study's protocol + its params), ``seed`` and ``device``, or None.
+
+    Training on the CPU is deterministic for a protocol and seed (same threads), so such a
+    run is the run this one would be; the encoder study's ``resnet3d`` runs, made afresh
+    with ``--no-reuse``, check that against the representation study's ``binary`` runs.
+    The returned record names its origin in ``reused_from`` (``"study/config"``).
+    """
+    for other in sorted(Path(out).glob("*.json")):
+        if exclude is not None and other.resolve() == exclude.resolve():
+            continue
+        try:
+            results = json.loads(other.read_text())
+        except (OSError, json.JSONDecodeError):
+            continue
+        if not isinstance(results, dict) or "protocol" not in results:
+            continue
+        for run in results.get("runs", []):
+            if (run.get("seed") == seed and run.get("device") == device
+                    and {**results["protocol"], **run.get("params", {})} == protocol):
+                origin = run.get("reused_from", f"{results.get('study', other.stem)}/"
+                                                f"{run['config']}")
+                kept = {k: v for k, v in run.items() if k not in ("config", "params")}
+                return {**kept, "reused_from": origin}
+    return None
 
 
 def run_study(study: str, configs: Sequence[str] | None = None,
               seeds: Sequence[int] = (0, 1, 2), out: str | os.PathLike = DEFAULT_OUT,
               device: str = "auto", quick: bool = False, progress: bool = True,
-              base_overrides: dict | None = None) -> Path:
+              base_overrides: dict | None = None, reuse: bool = True) -> Path:
     """Run every (config, seed) of ``study`` not yet in ``OUT/STUDY.json``; return the path.
 
     ``base_overrides`` changes the shared protocol (for example ``{"data": ...}`` in tests);
     a results file whose protocol differs from this one is refused, so results made under
-    different protocols never mix.
+    different protocols never mix. With ``reuse``, a (config, seed) whose full protocol was
+    already run by another study in ``out`` (``100x5ms`` of ``time`` is ``binary`` of
+    ``representation``) is copied from there (:func:`find_same_run`) instead of trained again.
     """
     from tqdm.auto import tqdm
 
@@ -374,19 +407,29 @@ def run_study(study: str, configs: Sequence[str] | None = None,
     if results["protocol"] != protocol:
         raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
                          f"use another --out folder to run this one ({protocol})")
-    results["command"] = command_line(study, configs, seeds, quick)
+    results["command"] = command_line(study, configs, seeds, quick, reuse)
     done = {(r["config"], r["seed"]) for r in results["runs"]}
     todo = [(n, s) for n in names for s in seeds if (n, int(s)) not in done]
     bar = tqdm(todo, desc=f"{study} runs", unit="run", disable=not progress)
     for name, seed in bar:
         bar.set_postfix(config=name, seed=seed)
         params = spec.configs[name]
-        record = run_one({**protocol, **params}, int(seed), device=device, progress=progress)
+        record = None
+        if reuse:
+            from e2vlib.train import resolve_device
+
+            record = find_same_run(path.parent, {**protocol, **params}, int(seed),
+                                   str(resolve_device(device)), exclude=path)
+        if record is None:
+            record = run_one({**protocol, **params}, int(seed), device=device,
+                             progress=progress)
         results["runs"].append({"config": name, "params": params, **record})
         _write(path, results)
         if progress:
+            origin = f", copied from {record['reused_from']}" if "reused_from" in record else ""
             tqdm.write(f"{study}/{name} seed {seed}: test IoU@0.3 "
-                       f"{record['metrics']['iou@0.3']:.3f} ({record['train_seconds']:.0f} s)")
+                       f"{record['metrics']['iou@0.3']:.3f} ({record['train_seconds']:.0f} s"
+                       f"{origin})")
     if not todo:
         _write(path, results)
     return path

@@ -108,3 +108,27 @@ def test_best_threshold_maximises_iou():
 def test_recorded_command_reproduces_the_call():
     assert command_line("time", None, [0, 1, 2], False) == (
         "python -m e2vlib experiment time --seeds 0 1 2")
+
+
+def test_a_run_with_the_same_full_protocol_is_reused_and_a_fresh_one_agrees(
+        tiny_events_dataset, tmp_path):
+    overrides = _overrides(tiny_events_dataset)
+    first = run_study("representation", ["binary"], seeds=[0], out=tmp_path, quick=True,
+                      progress=False, base_overrides=overrides)
+    original = json.loads(first.read_text())["runs"][0]
+    # loss "bce" is the base protocol, the same as representation "binary"; "focal" is not
+    loss = run_study("loss", ["bce", "focal"], seeds=[0], out=tmp_path, quick=True,
+                     progress=False, base_overrides=overrides)
+    copied, focal = json.loads(loss.read_text())["runs"]
+    assert copied["reused_from"] == "representation/binary"
+    assert copied["config"] == "bce" and copied["params"] == {"loss": "bce"}
+    assert copied["metrics"] == original["metrics"]
+    assert "reused_from" not in focal
+    # trained afresh (another folder, reuse off): CPU training is deterministic
+    fresh = run_study("loss", ["bce"], seeds=[0], out=tmp_path / "fresh", quick=True,
+                      progress=False, base_overrides=overrides, reuse=False)
+    fresh_run = json.loads(fresh.read_text())["runs"][0]
+    assert "reused_from" not in fresh_run
+    assert fresh_run["metrics"]["iou@0.3"] == pytest.approx(original["metrics"]["iou@0.3"],
+                                                            abs=1e-6)
+    assert json.loads(fresh.read_text())["command"].endswith("--quick --no-reuse")
