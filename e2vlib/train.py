@@ -363,6 +363,8 @@ def fit(
     metadata: dict | None = None,
     data_config: dict | None = None,
     loss: str = "bce",
+    precision: str = "fp32",
+    channels_last: bool = False,
     **recipe_overrides,
 ) -> list[dict]:
     """Train ``model`` with AdamW and a loss on logits (the paper's BCE); return the history.
@@ -406,6 +408,16 @@ def fit(
         same loss as ``val_loss``; ``best.pt`` is still picked by validation IoU. The name
         is stored in the checkpoints under ``"loss"``, and resuming with another loss is
         refused.
+    precision
+        ``"fp32"`` (default) or ``"bf16"``: the training forward pass under
+        ``torch.autocast`` in bfloat16 (the loss, the optimizer and validation stay in
+        float32). Fast on CPUs with AVX-512 BF16 or AMX and on recent GPUs
+        (:func:`bf16_is_fast`); elsewhere it is refused with a ValueError.
+    channels_last
+        Store the convolution weights channels-last (``torch.channels_last_3d`` for 3D,
+        ``torch.channels_last`` for 2D kernels), which oneDNN runs faster on CPU. The
+        weights are the same numbers; only float rounding in the convolutions differs.
+        See bench/RESULTS.md ("Faster CPU training") for what each option gains.
 
     Under ``torchrun`` the model is wrapped in DistributedDataParallel and each process
     trains on its share of every batch's samples; only rank 0 writes files.
@@ -420,6 +432,8 @@ def fit(
         raise ValueError(f"unknown loss {loss!r}; choose one of {', '.join(LOSSES)} "
                          "(e2vlib.losses.LOSSES)")
     loss_fn = make_loss(loss)
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, got {precision!r}")
     if not _is_whole(seed):
         raise ValueError(f"seed must be a whole number, got {seed!r}")
     seed = int(seed)
@@ -446,6 +460,11 @@ def fit(
     # seed; a resumed run restores the generator's state from last.pt instead.
     torch.manual_seed(seed)
     model.to(device)
+    if precision == "bf16" and not bf16_is_fast(device):
+        raise ValueError(f"precision='bf16' on {device}: this device has no fast bfloat16 "
+                         "(AVX-512 BF16/AMX CPU or a bf16 GPU); train with precision='fp32'")
+    if channels_last:
+        to_channels_last(model)
     optimizer = torch.optim.AdamW(model.parameters(), lr=recipe.lr,
                                   weight_decay=recipe.weight_decay)
     history: list[dict] = []
@@ -485,7 +504,10 @@ def fit(
                 mine = batch[:1]  # keep every process stepping in lockstep
             x = train_set.frames[mine].to(device, torch.float32)
             y = train_set.voxels[mine].to(device, torch.float32)
-            value = loss_fn(net(x), y)
+            with torch.autocast(device.type, dtype=torch.bfloat16,
+                                enabled=precision == "bf16"):
+                logits = net(x)
+            value = loss_fn(logits.float(), y)
             optimizer.zero_grad(set_to_none=True)
             value.backward()
             optimizer.step()
@@ -508,6 +530,7 @@ def fit(
             extra = {"optimizer": optimizer.state_dict(), "epoch": epoch,
                      "best_iou": best_iou, "history": history, "recipe": asdict(recipe),
                      "torch_rng": torch.get_rng_state(), "seed": seed, "loss": loss,
+                     "precision": precision, "channels_last": bool(channels_last),
                      "metadata": metadata or {}}
             if device.type == "cuda":
                 extra["cuda_rng"] = torch.cuda.get_rng_state(device)
@@ -523,6 +546,32 @@ def fit(
         if on_epoch is not None and rank == 0:
             on_epoch(history)
     return history
+
+
+PRECISIONS = ("fp32", "bf16")
+"""The ``precision=`` choices of :func:`fit`."""
+
+
+def bf16_is_fast(device: str | torch.device = "cpu") -> bool:
+    """Whether ``device`` runs bfloat16 convolutions natively (CPU: AVX-512 BF16 or AMX,
+    through oneDNN; CUDA: compute capability 8.0 or newer)."""
+    device = torch.device(device)
+    if device.type == "cuda":
+        return torch.cuda.is_available() and torch.cuda.is_bf16_supported()
+    if device.type == "cpu":
+        return bool(torch.backends.mkldnn.is_available()
+                    and torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    return False
+
+
+def to_channels_last(model: nn.Module) -> nn.Module:
+    """Store every 5D weight as ``channels_last_3d`` and every 4D one as ``channels_last``,
+    in place (the values are unchanged); returns ``model``."""
+    formats = {5: torch.channels_last_3d, 4: torch.channels_last}
+    for tensor in [*model.parameters(), *model.buffers()]:
+        if tensor.dim() in formats:
+            tensor.data = tensor.data.contiguous(memory_format=formats[tensor.dim()])
+    return model
 
 
 RESUME_KEYS = ("optimizer", "epoch", "best_iou", "history", "torch_rng")

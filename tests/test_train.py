@@ -15,6 +15,7 @@ from e2vlib.train import (
     RECIPES,
     Recipe,
     TensorSet,
+    bf16_is_fast,
     evaluate,
     fit,
     format_table,
@@ -22,6 +23,7 @@ from e2vlib.train import (
     predict,
     resolve_device,
     score_predictions,
+    to_channels_last,
 )
 
 SHAPE = (8, 16, 16)
@@ -202,6 +204,7 @@ def test_lr_schedule_is_public_and_is_what_fit_uses(tmp_path):
     ({"recipe": "bogus"}, "unknown recipe 'bogus'; choose one of \\['paper', 'tiny'\\]"),
     ({"lrr": 1e-3}, "unknown recipe fields \\['lrr'\\]"),
     ({"loss": "dice"}, "unknown loss 'dice'; choose one of bce, focal, bce_dice"),
+    ({"precision": "fp16"}, "precision must be one of fp32, bf16, got 'fp16'"),
 ])
 def test_fit_rejects_bad_settings_before_writing_anything(tmp_path, kwargs, message):
     out = tmp_path / "run"
@@ -374,3 +377,48 @@ def test_resume_refuses_another_loss_and_reads_older_checkpoints(tmp_path):
     history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2,
                   resume=True, **kwargs)
     assert [h["epoch"] for h in history] == [1, 2]
+
+
+@pytest.mark.parametrize("preset", ["tiny", "tiny2d"])
+def test_channels_last_keeps_the_values_and_trains_the_same(tmp_path, preset):
+    def make():
+        return small_model(encoder="frames2d") if preset == "tiny2d" else small_model()
+
+    model = make()
+    before = {k: v.clone() for k, v in model.state_dict().items()}
+    to_channels_last(model)
+    kernels = [p for p in model.parameters() if p.dim() in (4, 5)]
+    assert kernels and all(
+        p.is_contiguous(memory_format=torch.channels_last_3d if p.dim() == 5
+                        else torch.channels_last) for p in kernels)
+    assert all(torch.equal(before[k], v) for k, v in model.state_dict().items())
+    runs = {}
+    for flag in (False, True):
+        runs[flag] = fit(make(), toy_set(16), toy_set(8, 1), tmp_path / str(flag),
+                         epochs=2, lr=1e-2, batch_size=8, channels_last=flag, progress=False)
+    for a, b in zip(runs[False], runs[True], strict=True):
+        assert b["train_loss"] == pytest.approx(a["train_loss"], rel=1e-3)
+        assert b["val_iou"] == pytest.approx(a["val_iou"], abs=1e-3)
+    assert read_checkpoint(tmp_path / "True" / "last.pt")["channels_last"] is True
+    loaded = load_checkpoint(tmp_path / "True" / "last.pt")  # the digest ignores the layout
+    assert loaded.input_shape == SHAPE
+
+
+@pytest.mark.skipif(not bf16_is_fast("cpu"), reason="this CPU has no native bfloat16")
+def test_bf16_training_learns_and_keeps_float32_weights(tmp_path):
+    history = fit(small_model(), toy_set(), toy_set(8, seed=1), tmp_path, epochs=4,
+                  lr=1e-2, batch_size=8, precision="bf16", progress=False)
+    assert history[-1]["train_loss"] < 0.5 * history[0]["train_loss"]
+    assert history[-1]["val_iou"] > history[0]["val_iou"] + 0.15
+    last = read_checkpoint(tmp_path / "last.pt")
+    assert last["precision"] == "bf16"
+    assert all(v.dtype == torch.float32 for v in last["model"].values()
+               if v.is_floating_point())
+
+
+def test_bf16_is_refused_where_it_is_not_fast(tmp_path, monkeypatch):
+    monkeypatch.setattr(torch.ops.mkldnn, "_is_mkldnn_bf16_supported", lambda: False)
+    assert not bf16_is_fast("cpu")
+    with pytest.raises(ValueError, match="no fast bfloat16"):
+        fit(small_model(), toy_set(4), toy_set(2), tmp_path, device="cpu", precision="bf16",
+            progress=False)
