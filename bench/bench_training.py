@@ -24,7 +24,7 @@ from common import machine, spread, timeit, write_section  # noqa: E402
 
 from e2vlib.data import E2VDataset  # noqa: E402
 from e2vlib.model import build_e2v, load_checkpoint, read_checkpoint  # noqa: E402
-from e2vlib.train import evaluate, preload  # noqa: E402
+from e2vlib.train import bf16_is_fast, evaluate, preload, to_channels_last  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data_small"
@@ -46,20 +46,57 @@ print(seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
 """
 
 
-def training_rate(batch: int = 16, steps: int = 6) -> dict:
+SPEED_OPTIONS = {
+    "fp32 (default)": {},
+    "channels-last": {"channels_last": True},
+    "bf16 autocast": {"precision": "bf16"},
+    "bf16 + channels-last": {"precision": "bf16", "channels_last": True},
+}
+"""``fit`` options whose training step is timed (``fit(..., **options)``)."""
+
+
+def training_rate(batch: int = 16, steps: int = 6, precision: str = "fp32",
+                  channels_last: bool = False, compiled: bool = False) -> dict:
+    """Seconds per tiny training step (batch of real frames), as ``fit`` runs it."""
     data = preload(E2VDataset(DATA, "train"))
     model = build_e2v("tiny", seed=0).train()
+    if channels_last:
+        to_channels_last(model)
+    net = torch.compile(model) if compiled else model
     optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
     loss_fn = torch.nn.BCEWithLogitsLoss()
     x = data.frames[:batch].float()
     y = data.voxels[:batch].float()
 
     def step():
+        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=precision == "bf16"):
+            logits = net(x)
         optimizer.zero_grad(set_to_none=True)
-        loss_fn(model(x), y).backward()
+        loss_fn(logits.float(), y).backward()
         optimizer.step()
 
-    return timeit(step, repeat=steps)
+    return timeit(step, repeat=steps, warmup=2)
+
+
+def speed_table(threads: int) -> list[str]:
+    """Markdown rows: each training option's step time and gain over fp32."""
+    rows = ["| option (`fit(...)`) | step (batch 16) | samples/s | gain |",
+            "| --- | --- | --- | --- |"]
+    base = None
+    for name, options in SPEED_OPTIONS.items():
+        if options.get("precision") == "bf16" and not bf16_is_fast("cpu"):
+            rows.append(f"| {name} | skipped: no native bfloat16 on this CPU | | |")
+            continue
+        rate = training_rate(**options)
+        base = base or rate["median"]
+        rows.append(f"| {name} `{options}` | {spread(rate)} | {16 / rate['median']:.0f} | "
+                    f"{base / rate['median']:.2f}x |")
+    torch.set_num_threads(1)
+    one = training_rate()
+    torch.set_num_threads(threads)
+    rows.append(f"| fp32, 1 thread instead of {threads} | {spread(one)} | "
+                f"{16 / one['median']:.0f} | {base / one['median']:.2f}x |")
+    return rows
 
 
 def paper_forward(threads: int) -> tuple[float, float] | str:
@@ -80,6 +117,9 @@ def main() -> str:
              f"torch threads {threads}.", ""]
     lines.append(f"- **tiny training step** (batch 16, 100 x 64 x 64, AdamW): "
                  f"{spread(rate)} per step = **{16 / rate['median']:.0f} samples/s**.")
+    lines += ["", "Faster CPU training: the same step with each of `fit`'s speed options "
+              "(`torch.compile` is not among them: see the note below the table).", "",
+              *speed_table(threads), ""]
     paper = paper_forward(threads)
     if isinstance(paper, str):
         lines.append(f"- **paper preset forward** (1 x 100 x 256 x 256): {paper}.")

@@ -1,4 +1,4 @@
-"""Command line: ``python -m e2vlib {make-data,train,evaluate,reconstruct,figures} ...``.
+"""Command line: ``python -m e2vlib {make-data,merge-data,train,evaluate,reconstruct,...} ...``.
 
 Each subcommand is a thin wrapper over a library function; ``--help`` on any of them
 lists its options. Arguments are checked before any work starts and before anything is
@@ -183,30 +183,61 @@ def _model_frames_check(model, ckpt: dict, checkpoint: str, data_config: dict | 
 # --------------------------------------------------------------------------- commands
 
 
-def _make_data(args: argparse.Namespace) -> int:
-    from e2vlib.data import BuildConfig, build_dataset, parse_shard
+def _build_config(args: argparse.Namespace):
+    """The BuildConfig a ``make-data`` command line asks for (UsageError if invalid)."""
+    from e2vlib.data import BuildConfig
     from e2vlib.paper import CATEGORIES
 
     settings = dict(DATA_PRESETS[args.preset]) if args.preset else {}
     for key in ("per_category", "resolution", "frame_size", "seed", "n_frames", "dt_us",
-                "windows"):
+                "windows", "contrast"):
         value = getattr(args, key)
         if value is not None:
             settings[key] = value
     settings.setdefault("per_category", 32)
     categories = _categories(args.categories) if args.categories is not None else CATEGORIES
+    try:  # validates every setting; nothing is written before this
+        return BuildConfig(categories=categories, oversample=args.oversample,
+                           raw_events_per_category=args.raw_events_per_category,
+                           grey_video=args.grey_video, **settings)
+    except ValueError as err:
+        raise UsageError(f"invalid dataset settings: {err}") from None
+
+
+def _make_data(args: argparse.Namespace) -> int:
+    from e2vlib.data import build_dataset, parse_shard
+
     try:
         shard = parse_shard(args.shard)
     except ValueError as err:
         raise UsageError(f"--shard: {err}") from None
-    try:  # validates every setting; nothing is written before this
-        config = BuildConfig(categories=categories, oversample=args.oversample,
-                             raw_events_per_category=args.raw_events_per_category, **settings)
-    except ValueError as err:
-        raise UsageError(f"invalid dataset settings: {err}") from None
+    config = _build_config(args)
     _output_folder(args.out, "--out")
     manifest = build_dataset(args.out, config, workers=args.workers, shard=shard)
     print(f"manifest: {manifest}")
+    return 0
+
+
+def _merge_data(args: argparse.Namespace) -> int:
+    from e2vlib.shards import merge_datasets
+
+    out = _output_folder(args.out, "--out")
+    for folder in args.shards:
+        path = Path(folder)
+        if not path.is_dir():
+            raise UsageError(f"shard folder {path}: no such folder; give the --out folders "
+                             "of the make-data --shard runs")
+    if not args.shards and not (out / "config.json").is_file():
+        raise UsageError(f"--out {out} holds no dataset to verify; list the shard folders to "
+                         "merge after --out, or point --out at a shared shard folder")
+    report = merge_datasets(out, args.shards, link=not args.copy)
+    if report.sources:
+        print(f"merged {report.n_samples} samples from {len(report.sources)} folder(s) into "
+              f"{out}: {report.linked} files hard-linked, {report.copied} copied, "
+              f"{report.kept} already there")
+    else:
+        print(f"verified {out}: all {report.n_samples} planned samples present and readable")
+    print(f"manifest: {report.manifest}")
     return 0
 
 
@@ -300,7 +331,8 @@ def _train(args: argparse.Namespace) -> int:
         model = build_e2v(args.preset or "tiny", seed=args.seed,
                           input_shape=train_set.input_shape)
     history = fit(model, train_set, val_set, out, recipe=recipe, device=args.device,
-                  seed=args.seed, resume=args.resume, metadata=metadata)
+                  seed=args.seed, resume=args.resume, metadata=metadata, loss=args.loss,
+                  precision=args.precision, channels_last=args.channels_last)
     if history:
         best = max(history, key=lambda h: h["val_iou"])
         print(f"best validation IoU@{IOU_THRESHOLD} {best['val_iou']:.3f} at epoch "
@@ -492,14 +524,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dt-us", type=positive, help="frame length in microseconds (5000)")
     p.add_argument("--windows", choices=("fixed", "paper"),
                    help="frame grouping: fixed clock windows (default) or the paper's Eq. 5")
+    p.add_argument("--contrast", type=_positive_number,
+                   help="the simulator's contrast threshold C (default 0.2)")
+    p.add_argument("--grey-video", action="store_true",
+                   help="also store each sample's grey video at the event frames' times "
+                   "(OUT/grey/<id>.npz, uint8 frames of --frame-size px)")
     p.add_argument("--workers", type=positive, default=1, help="parallel processes (default 1)")
-    p.add_argument("--shard", default="0/1", help="build only shard i of n, e.g. 2/8")
+    p.add_argument("--shard", default="0/1", help="build only shard i of n, e.g. 2/8 "
+                   "(join shard folders with merge-data)")
     p.set_defaults(func=_make_data)
+
+    p = sub.add_parser("merge-data", help="merge the folders of make-data --shard runs into "
+                       "one dataset and check it is complete (with no SHARD_DIR: verify --out "
+                       "in place)")
+    p.add_argument("shards", nargs="*", metavar="SHARD_DIR",
+                   help="folders built by make-data --shard i/n (same settings)")
+    p.add_argument("--out", required=True, help="merged dataset folder (created); alone, the "
+                   "shared folder all shards were built into, verified in place")
+    p.add_argument("--copy", action="store_true", help="copy files (default: hard-link them "
+                   "when on the same filesystem, else copy)")
+    p.set_defaults(func=_merge_data)
 
     p = sub.add_parser("train", help="train E2V on a dataset (writes best.pt, last.pt, "
                        "history.json); run under torchrun for several processes/GPUs")
     p.add_argument("--data", required=True, help="dataset folder (e2vlib or SynthEVox3D)")
-    p.add_argument("--preset", help="model preset: tiny (default), tiny2d, paper")
+    p.add_argument("--preset", help="model preset: tiny (default), tiny2d, tiny_gru, paper")
     p.add_argument("--out", required=True, help="output folder for checkpoints")
     p.add_argument("--recipe", default="tiny", help="training recipe: tiny or paper")
     p.add_argument("--epochs", type=positive, help="override the recipe's epochs")
@@ -511,6 +560,13 @@ def build_parser() -> argparse.ArgumentParser:
                    "slim data_small/checkpoints/tiny.pt), with a fresh optimizer")
     p.add_argument("--device", default="auto", help=f"one of {DEVICES} (default auto)")
     p.add_argument("--seed", type=count, default=0, help="seed for weights and shuffling")
+    p.add_argument("--loss", default="bce", choices=("bce", "focal", "bce_dice"),
+                   help="training loss (default bce, the paper's; see lesson 10)")
+    p.add_argument("--precision", default="fp32", choices=("fp32", "bf16"),
+                   help="bf16: the forward pass in bfloat16 autocast, on CPUs with AVX-512 "
+                   "BF16/AMX and recent GPUs (faster; bench/RESULTS.md)")
+    p.add_argument("--channels-last", action="store_true",
+                   help="channels-last convolution weights (faster on CPU through oneDNN)")
     p.set_defaults(func=_train)
 
     p = sub.add_parser("evaluate", help="IoU and F-score per category, as in the paper's "

@@ -12,6 +12,13 @@ Layout written by :func:`build_dataset` (``data_small/`` is one)::
     ROOT/config.json            the builder's settings (resolution, frame size, ...)
     ROOT/samples/<id>.npz       frames (bit-packed), voxels (bit-packed), n_events
     ROOT/events/<id>.npz        raw events of a few samples (e2vlib.io format)
+    ROOT/grey/<id>.npz          grey video at the event frames' times (``--grey-video`` only)
+    ROOT/shards/<i>-of-<n>.json which shards ran here (``--shard i/n`` builds only)
+
+Newer manifests also carry ``sha256``, the digest of each sample file's arrays
+(:func:`npz_digest`); older ones without it read as before. Shards built into separate
+folders are joined and checked by :func:`e2vlib.shards.merge_datasets`
+(``python -m e2vlib merge-data``).
 
 :class:`E2VDataset` reads that layout and the authors' released SynthEVox3D layout.
 
@@ -26,7 +33,7 @@ import json
 import multiprocessing
 import os
 import zipfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
@@ -41,6 +48,8 @@ from e2vlib.frames import WINDOWS, accumulate, downsample
 from e2vlib.io import save_events
 
 SPLITS = ("train", "val", "test")
+GREY_DIR = "grey"
+"""Folder of a dataset holding the grey videos (``make-data --grey-video``)."""
 SPLIT_FRACTIONS = (0.8, 0.1, 0.1)  # the paper's 832 : 104 : 104 is 8 : 1 : 1
 
 
@@ -55,7 +64,9 @@ class BuildConfig:
     see lesson 03); ``contrast``: the simulator's threshold C (our choice, the paper gives
     none); ``n_frames`` event frames of ``dt_us`` microseconds, grouped by ``windows``
     (``"fixed"`` clock windows or the paper's Eq. 5 ``"paper"``, see
-    :func:`e2vlib.frames.accumulate`).
+    :func:`e2vlib.frames.accumulate`); ``grey_video``: also store every sample's grey
+    video at the event frames' times (:func:`grey_frame_indices`), in ROOT/grey/. It is
+    written to config.json only when true, so older configs read as False.
 
     Examples
     --------
@@ -77,6 +88,7 @@ class BuildConfig:
     n_frames: int = paper.N_EVENT_FRAMES
     dt_us: int = paper.DT_US
     windows: str = paper.FRAME_WINDOWS
+    grey_video: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "categories", tuple(self.categories))
@@ -102,6 +114,8 @@ class BuildConfig:
             problems.append(f"contrast must be a positive number, got {self.contrast!r}")
         if self.windows not in WINDOWS:
             problems.append(f"windows must be one of {WINDOWS}, got {self.windows!r}")
+        if not isinstance(self.grey_video, (bool, np.bool_)):
+            problems.append(f"grey_video must be True or False, got {self.grey_video!r}")
         if not problems and self.resolution % self.frame_size:
             problems.append(f"frame_size {self.frame_size} must divide resolution "
                             f"{self.resolution}")
@@ -114,15 +128,21 @@ class BuildConfig:
                                required_oversample(paper.N_VIDEO_FRAMES, self.resolution))
 
     def to_dict(self) -> dict:
-        """A JSON-ready dict of every field (categories as a list)."""
+        """A JSON-ready dict of every field (categories as a list); ``grey_video`` only
+        when true, so configs without it keep their exact old form."""
         d = asdict(self)
         d["categories"] = list(self.categories)
+        if not self.grey_video:
+            del d["grey_video"]
+        else:
+            d["grey_video"] = True
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> BuildConfig:
         """Inverse of :meth:`to_dict`. Keys missing from configs written before the frame
-        settings were recorded get the values those builds used (100 fixed 5 ms windows)."""
+        settings were recorded get the values those builds used (100 fixed 5 ms windows,
+        no grey video)."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:
@@ -156,12 +176,19 @@ class SampleSpec:
 
 @dataclass
 class Sample:
-    """A built sample: frames (n_frames, S, S) uint8 0/1, voxels (32, 32, 32) bool."""
+    """A built sample: frames (n_frames, S, S) uint8 0/1, voxels (32, 32, 32) bool.
+
+    With ``config.grey_video``, ``grey`` is the grey video (n_frames, S, S) uint8 and
+    ``grey_index`` (n_frames,) int64 the rendered frame each grey frame comes from
+    (see :func:`grey_frame_indices`); otherwise both are None.
+    """
 
     frames: np.ndarray
     voxels: np.ndarray
     events: np.ndarray
     sensor_size: tuple[int, int]
+    grey: np.ndarray | None = None
+    grey_index: np.ndarray | None = None
 
 
 def sample_seed(seed: int, category: str, index: int) -> int:
@@ -236,11 +263,131 @@ def events_to_model_input(events: np.ndarray, sensor_size: tuple[int, int],
     return downsample(frames[:, top:top + side, left:left + side], factor)
 
 
+# --- grey video at the event frames' times ---------------------------------------------
+
+
+def rendered_times_us(config: BuildConfig) -> np.ndarray:
+    """Time stamps (int64 us, shape ``(n_rendered,)``) of the video frames that
+    :func:`mesh_to_sample` renders for ``config``: ``n_rendered = oversample * (120 - 1)
+    + 1`` frames at ``oversample * 240`` fps, as :func:`e2vlib.render.render_orbit`
+    stamps them (frame ``i`` at ``round(i * 1e6 / (oversample * 240))``)."""
+    k = int(config.oversample)
+    n = k * (paper.N_VIDEO_FRAMES - 1) + 1
+    return np.round(np.arange(n) * 1e6 / (k * float(paper.VIDEO_FPS))).astype(np.int64)
+
+
+def _nearest_frames(t_us: np.ndarray, n_frames: int, dt_us: int) -> np.ndarray:
+    """Index into ``t_us`` (sorted int64 us) of the frame nearest the centre
+    ``(k + 1/2) dt_us`` of each window ``k < n_frames``; ties go to the earlier frame."""
+    twice = 2 * np.asarray(t_us, dtype=np.int64)
+    centre2 = (2 * np.arange(n_frames, dtype=np.int64) + 1) * int(dt_us)  # 2 x centre (exact)
+    right = np.clip(np.searchsorted(twice, centre2), 1, len(twice) - 1)
+    left = right - 1
+    return np.where(centre2 - twice[left] <= twice[right] - centre2, left, right)
+
+
+def grey_frame_indices(config: BuildConfig) -> np.ndarray:
+    """Which rendered video frame becomes grey frame ``k``: shape ``(n_frames,)`` int64.
+
+    Grey frame ``k`` is the rendered frame (of the ``oversample``-times dense orbit that
+    fed the simulator, :func:`rendered_times_us`) nearest the centre ``(k + 1/2) dt_us``
+    of event window ``k`` (ties to the earlier frame). Windows past the end of the 0.5 s
+    video get its last frame. With ``windows="paper"`` the Eq. 5 groups start at events
+    and so vary per sample; the grey video keeps to the clock windows of ``dt_us``.
+    """
+    return _nearest_frames(rendered_times_us(config), config.n_frames, config.dt_us)
+
+
+def grey_frame_cameras(config: BuildConfig) -> np.ndarray:
+    """Camera position (m) of every grey frame, shape ``(n_frames, 3)``.
+
+    The orbit is fixed by the config alone (no per-sample randomness), so row ``k`` is
+    ``e2vlib.render.orbit_cameras(n_rendered)[grey_frame_indices(config)[k]]``; the camera
+    looks at the origin with +z up (see :func:`e2vlib.render.project_points`).
+    """
+    from e2vlib.render import orbit_cameras
+
+    return orbit_cameras(len(rendered_times_us(config)))[grey_frame_indices(config)]
+
+
+def video_to_grey(video: np.ndarray, indices: np.ndarray, frame_size: int) -> np.ndarray:
+    """Frames ``indices`` of a rendered ``video`` (n, R, R) float in [0, 1], area-averaged
+    down to ``frame_size`` (which must divide R), as uint8 grey levels
+    ``(len(indices), frame_size, frame_size)``: each pixel is the mean of an
+    ``R/frame_size``-square block of the 8-bit levels ``round(255 v)``, rounded half up
+    (exact integer arithmetic)."""
+    _, height, width = video.shape
+    if height != width or width % frame_size:
+        raise ValueError(f"video frames {width}x{height} must be square and a multiple of "
+                         f"frame_size {frame_size}")
+    f = width // frame_size
+    frames = np.clip(np.asarray(video[np.asarray(indices)], dtype=np.float64), 0.0, 1.0)
+    levels = np.rint(frames * 255.0).astype(np.int64)
+    sums = levels.reshape(len(levels), frame_size, f, frame_size, f).sum(axis=(2, 4))
+    return ((sums + (f * f) // 2) // (f * f)).astype(np.uint8)
+
+
+def save_grey_video(path: Path, grey: np.ndarray, frame_index: np.ndarray,
+                    t_us: np.ndarray) -> None:
+    """Write ROOT/grey/<id>.npz: ``grey`` uint8 (n_frames, S, S), ``frame_index`` int64
+    (n_frames,) into the rendered video, ``t_us`` int64 (n_frames,) their time stamps (us)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, grey=np.asarray(grey, dtype=np.uint8),
+                            frame_index=np.asarray(frame_index, dtype=np.int64),
+                            t_us=np.asarray(t_us, dtype=np.int64))
+
+
+def load_grey_video(root: str | os.PathLike, sample_id: str) -> np.ndarray:
+    """Grey video of sample ``sample_id``: uint8 ``(n_frames, frame_size, frame_size)``.
+
+    Frame ``k`` shows the object at the centre of event window ``k``
+    (:func:`grey_frame_indices`), seen from ``grey_frame_cameras(config)[k]``. Raises a
+    ValueError naming the make-data command to run when ``root`` was built without
+    ``--grey-video`` or the file is missing or damaged.
+    """
+    root = Path(root)
+    config_path = root / "config.json"
+    if not config_path.is_file():
+        raise FileNotFoundError(f"{config_path} not found: {root} is not a dataset made by "
+                                f"`python -m e2vlib make-data --out {root} --grey-video`")
+    stored = json.loads(config_path.read_text())
+    if not stored.get("grey_video", False):
+        try:
+            command = make_data_command(
+                BuildConfig.from_dict({**stored, "grey_video": True}), f"{root}_grey")
+        except (TypeError, ValueError):
+            command = "python -m e2vlib make-data --grey-video --out NEW_FOLDER ..."
+        raise ValueError(f"{root} was built without --grey-video, so it stores no grey "
+                         f"frames; build the same samples with them: `{command}`")
+    path = root / "grey" / f"{sample_id}.npz"
+    if not path.is_file():
+        if not (root / "samples" / f"{sample_id}.npz").is_file():
+            raise ValueError(f"{root} has no sample {sample_id!r}; ids are listed in "
+                             f"{root / 'manifest.csv'}")
+        raise ValueError(f"{path} is missing; delete {root / 'samples' / (sample_id + '.npz')}"
+                         f" and finish the build with make-data --out {root} (resumable)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            grey = np.asarray(data["grey"])
+    except (zipfile.BadZipFile, EOFError, OSError, KeyError, ValueError) as err:
+        raise ValueError(f"{path}: corrupted or truncated grey video ({err}); delete it and "
+                         f"its sample file and rerun make-data --out {root}") from err
+    settings = frame_settings(stored)
+    expected = (settings["n_frames"], settings["frame_size"], settings["frame_size"])
+    if grey.dtype != np.uint8 or grey.shape != expected:
+        raise ValueError(f"{path}: expected uint8 grey frames of shape {expected}, got "
+                         f"{grey.dtype} {grey.shape}; rebuild it with make-data --out {root}")
+    return grey
+
+
 def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     """Run one mesh through the whole pipeline: voxels, orbit video, events, frames.
 
     The mesh is normalized first (bbox centred, longest side 1). This is exactly what
-    the dataset builder and ``python -m e2vlib reconstruct --mesh`` do.
+    the dataset builder and ``python -m e2vlib reconstruct --mesh`` do. With
+    ``config.grey_video`` the same rendered video also gives ``sample.grey``
+    (:func:`grey_frame_indices`, :func:`video_to_grey`); nothing is rendered twice.
     Introduced in notebooks/04_building_the_dataset.ipynb.
     """
     from e2vlib.render import render_orbit
@@ -257,7 +404,12 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     sensor_size = (config.resolution, config.resolution)
     frames = events_to_frames(events, sensor_size, config.frame_size, n_frames=config.n_frames,
                               dt_us=config.dt_us, windows=config.windows)
-    return Sample(frames=frames, voxels=voxels, events=events, sensor_size=sensor_size)
+    grey = grey_index = None
+    if config.grey_video:
+        grey_index = _nearest_frames(t_us, config.n_frames, config.dt_us)
+        grey = video_to_grey(video, grey_index, config.frame_size)
+    return Sample(frames=frames, voxels=voxels, events=events, sensor_size=sensor_size,
+                  grey=grey, grey_index=grey_index)
 
 
 def save_sample(path: Path, frames: np.ndarray, voxels: np.ndarray, n_events: int) -> None:
@@ -298,6 +450,9 @@ def _build_one(args: tuple[BuildConfig, SampleSpec, str, bool]) -> dict:
     root_path = Path(root)
     if keep_events:
         save_events(root_path / "events" / f"{spec.id}.npz", sample.events, sample.sensor_size)
+    if sample.grey is not None:  # written before the sample file, which marks it done
+        save_grey_video(root_path / GREY_DIR / f"{spec.id}.npz", sample.grey, sample.grey_index,
+                        rendered_times_us(config)[sample.grey_index])
     save_sample(root_path / "samples" / f"{spec.id}.npz", sample.frames, sample.voxels,
                 len(sample.events))
     return {**asdict(spec), "n_events": len(sample.events)}
@@ -325,8 +480,10 @@ def build_dataset(
 
     Deterministic for a config; resumable: samples whose file exists are skipped, and
     every file is written under a temporary name, then renamed. ``shard=(i, n)`` builds
-    every n-th sample starting at i, so n processes or cluster jobs can share the work;
-    each run rewrites the manifest from the sample files present.
+    every n-th sample starting at i, so n processes or cluster jobs can share the work
+    (into one shared folder or one folder each, joined by :func:`e2vlib.shards.merge_datasets`); it
+    leaves ROOT/shards/<i>-of-<n>.json so a merge can name a missing shard. Each run
+    rewrites the manifest from the sample files present.
     Introduced in notebooks/04_building_the_dataset.ipynb.
     """
     from tqdm.auto import tqdm
@@ -349,8 +506,13 @@ def build_dataset(
     specs = plan_samples(config)
     keep = _raw_event_ids(specs, config.raw_events_per_category)
     index, count = shard
+    if count > 1:
+        marker = root / SHARDS_DIR / f"{index}-of-{count}.json"
+        marker.parent.mkdir(exist_ok=True)
+        with atomic_path(marker) as tmp:
+            tmp.write_text(json.dumps({"shard": f"{index}/{count}"}) + "\n")
     todo = [s for k, s in enumerate(specs) if k % count == index
-            and not (root / "samples" / f"{s.id}.npz").exists()]
+            and not _sample_done(root, s.id, config)]
     jobs = [(config, s, str(root), s.id in keep) for s in todo]
     bar = tqdm(total=len(jobs), desc=f"building {root.name}", unit="sample",
                disable=not progress)
@@ -367,6 +529,12 @@ def build_dataset(
     return write_manifest(root, specs)
 
 
+def _sample_done(root: Path, sample_id: str, config: BuildConfig) -> bool:
+    """True when the sample file exists (and its grey video, if the build stores one)."""
+    return (root / "samples" / f"{sample_id}.npz").exists() and (
+        not config.grey_video or (root / GREY_DIR / f"{sample_id}.npz").exists())
+
+
 def _raw_event_ids(specs: Sequence[SampleSpec], per_category: int) -> set[str]:
     """Ids whose raw events are kept: the first test samples of each category."""
     keep, seen = set(), {}
@@ -377,11 +545,49 @@ def _raw_event_ids(specs: Sequence[SampleSpec], per_category: int) -> set[str]:
     return keep
 
 
-MANIFEST_FIELDS = ("id", "category", "split", "seed", "n_events")
+MANIFEST_FIELDS = ("id", "category", "split", "seed", "n_events", "sha256")
+SHARDS_DIR = "shards"
+"""Folder of a dataset holding one ``<i>-of-<n>.json`` per ``--shard i/n`` run."""
 
 
-def write_manifest(root: Path, specs: Iterable[SampleSpec]) -> Path:
-    """Write ROOT/manifest.csv for every planned sample whose file exists."""
+def npz_digest(path: str | os.PathLike) -> str:
+    """SHA-256 (hex) of an ``.npz`` file's arrays: every member's name and ``.npy`` bytes,
+    in name order. Unlike the file's own bytes it leaves out the write times that
+    ``np.savez`` puts in the zip, so two builds of one sample give the same digest.
+    Raises ValueError naming the file when it is not a readable zip (CRCs are checked)."""
+    h = hashlib.sha256()
+    try:
+        with zipfile.ZipFile(path) as zf:
+            for name in sorted(zf.namelist()):
+                encoded = name.encode()
+                h.update(len(encoded).to_bytes(8, "little") + encoded)
+                h.update(zf.getinfo(name).file_size.to_bytes(8, "little"))
+                with zf.open(name) as member:
+                    for block in iter(lambda: member.read(1 << 20), b""):
+                        h.update(block)
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as err:
+        raise ValueError(f"{path}: corrupted or truncated file ({err})") from err
+    return h.hexdigest()
+
+
+def _manifest_digests(root: Path) -> dict[str, str]:
+    """``{id: sha256}`` recorded in ROOT/manifest.csv (empty for old or unreadable ones)."""
+    try:
+        rows = read_manifest(root)
+    except (OSError, ValueError, KeyError):
+        return {}
+    return {r["id"]: r["sha256"] for r in rows if r.get("sha256")}
+
+
+def write_manifest(root: Path, specs: Iterable[SampleSpec],
+                   digests: Mapping[str, str] | None = None) -> Path:
+    """Write ROOT/manifest.csv for every planned sample whose file exists.
+
+    ``sha256`` is :func:`npz_digest` of the sample file, taken from ``digests``, else from
+    the manifest already there (the digest recorded when it was built), else computed.
+    """
+    root = Path(root)
+    known = {**_manifest_digests(root), **(digests or {})}
     rows = []
     for spec in specs:
         path = root / "samples" / f"{spec.id}.npz"
@@ -389,7 +595,8 @@ def write_manifest(root: Path, specs: Iterable[SampleSpec]) -> Path:
             with np.load(path, allow_pickle=False) as data:
                 n_events = int(data["n_events"])
             rows.append({"id": spec.id, "category": spec.category, "split": spec.split,
-                         "seed": spec.seed, "n_events": n_events})
+                         "seed": spec.seed, "n_events": n_events,
+                         "sha256": known.get(spec.id) or npz_digest(path)})
     manifest = root / "manifest.csv"
     with atomic_path(manifest) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=MANIFEST_FIELDS)
@@ -399,7 +606,8 @@ def write_manifest(root: Path, specs: Iterable[SampleSpec]) -> Path:
 
 
 def read_manifest(root: str | os.PathLike) -> list[dict]:
-    """Rows of ROOT/manifest.csv as dicts (``seed``, ``n_events`` as int)."""
+    """Rows of ROOT/manifest.csv as dicts (``seed``, ``n_events`` as int; ``sha256`` as
+    written, and absent from manifests older than it)."""
     path = Path(root) / "manifest.csv"
     if not path.is_file():
         raise FileNotFoundError(
@@ -410,6 +618,32 @@ def read_manifest(root: str | os.PathLike) -> list[dict]:
     for row in rows:
         row["seed"], row["n_events"] = int(row["seed"]), int(row["n_events"])
     return rows
+
+
+# --- sharded builds: command lines, merging, verifying ------------------------------------
+
+
+def make_data_command(config: BuildConfig, out: str | os.PathLike,
+                      shard: str | None = None) -> str:
+    """The ``python -m e2vlib make-data`` command line that builds ``config`` into ``out``
+    (only shard ``"i/n"`` of it when given); every setting is spelled out, so the command
+    gives this exact config whatever the defaults."""
+    parts = ["python", "-m", "e2vlib", "make-data", "--out", str(out)]
+    if tuple(config.categories) != tuple(paper.CATEGORIES):
+        parts += ["--categories", ",".join(config.categories)]
+    parts += ["--per-category", str(config.per_category), "--resolution", str(config.resolution),
+              "--frame-size", str(config.frame_size), "--oversample", str(config.oversample)]
+    if config.contrast != paper.CONTRAST_THRESHOLD:
+        parts += ["--contrast", repr(float(config.contrast))]
+    parts += ["--seed", str(config.seed),
+              "--raw-events-per-category", str(config.raw_events_per_category),
+              "--n-frames", str(config.n_frames), "--dt-us", str(config.dt_us),
+              "--windows", config.windows]
+    if config.grey_video:
+        parts.append("--grey-video")
+    if shard is not None:
+        parts += ["--shard", shard]
+    return " ".join(parts)
 
 
 # --- reading -----------------------------------------------------------------------------
@@ -509,6 +743,17 @@ class E2VDataset(Dataset):
         if self.layout == "e2vlib":
             return load_sample(path)
         return load_synthevox3d_scan(path, self.frame_size)
+
+    def grey_video(self, index: int) -> np.ndarray:
+        """Grey video of item ``index``, uint8 ``(D, H, W)`` (:func:`load_grey_video`);
+        only for datasets built with ``make-data --grey-video``."""
+        if self.layout != "e2vlib":
+            raise ValueError(f"{self.root} is a SynthEVox3D folder, which has no grey video; "
+                             "build a dataset with `python -m e2vlib make-data --grey-video`")
+        if not 0 <= index < len(self.items):
+            raise IndexError(f"index {index} is out of range for {len(self.items)} items; "
+                             f"use 0..{len(self.items) - 1}")
+        return load_grey_video(self.root, self.items[index][0])
 
     def __getitem__(self, index: int) -> dict:
         frames, voxels = self.arrays(index)

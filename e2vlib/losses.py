@@ -6,7 +6,8 @@ tensor; lower is better. Most voxels of a 32^3 grid are empty, so a loss that co
 voxel alike (BCE) is dominated by the empty ones early in training (about 95 % of an
 untrained model's BCE on a typical object, a quarter once trained; measured in lesson 10);
 the focal loss weighs down voxels that are already classified well, and the Dice term
-scores the overlap of the occupied voxels only. :func:`make_loss` gives a loss by name for :func:`e2vlib.train.fit`.
+scores the overlap of the occupied voxels only. :func:`make_loss` gives a loss by name for
+:func:`e2vlib.train.fit`.
 
 Introduced in notebooks/10_architectures_and_losses.ipynb.
 """

@@ -17,6 +17,7 @@ import trimesh
 from e2vlib.__main__ import main
 from e2vlib.events import make_events
 from e2vlib.io import save_events
+from e2vlib.model import read_checkpoint
 
 from .conftest import REPO
 
@@ -51,6 +52,15 @@ def test_train_resume_continues(trained):
     assert main(["train", "--data", str(data), "--out", str(out), "--epochs", "3",
                  "--resume", "--device", "cpu"]) == 0
     assert [h["epoch"] for h in json.loads((out / "history.json").read_text())] == [1, 2, 3]
+
+
+def test_train_passes_loss_precision_and_layout_to_fit(trained):
+    _, data, _ = trained
+    out = trained[0] / "focal_run"
+    assert main(["train", "--data", str(data), "--out", str(out), "--epochs", "1",
+                 "--loss", "focal", "--channels-last", "--device", "cpu"]) == 0
+    last = read_checkpoint(out / "last.pt")
+    assert (last["loss"], last["precision"], last["channels_last"]) == ("focal", "fp32", True)
 
 
 def test_evaluate_writes_the_json_layout(trained, capsys):
@@ -125,6 +135,8 @@ TRAIN = ("train", "--data", "nowhere", "--out", "nowhere_run")
     (("--seed", "x"), r"argument --seed: expected a whole number >= 0, got 'x'"),
     (("--init", "a.pt", "--resume"), r"--init starts a new run .* leave out --resume"),
     (("--bogus-flag",), r"unrecognized arguments: --bogus-flag"),
+    (("--loss", "dice"), r"argument --loss: invalid choice: 'dice'"),
+    (("--precision", "fp16"), r"argument --precision: invalid choice: 'fp16'"),
 ])
 def test_train_usage_errors_are_one_line_with_exit_2(capsys, tmp_path, monkeypatch, args, says):
     monkeypatch.chdir(tmp_path)
@@ -403,3 +415,45 @@ def test_corrected_rerun_after_a_refused_make_data_builds(capsys, tmp_path):
     code, printed, _ = run(capsys, *MAKE, "--oversample", "1", "--out", out)
     assert code == 0 and "manifest" in printed
     assert json.loads((out / "config.json").read_text())["oversample"] == 1
+
+
+# --- grey video and sharded builds (issues 13, 15) ------------------------------------------
+
+
+def test_make_data_command_spells_out_the_config_it_came_from():
+    from e2vlib.__main__ import _build_config, build_parser
+    from e2vlib.data import BuildConfig, make_data_command
+
+    for config in (BuildConfig(categories=("table", "chair"), per_category=3, resolution=32,
+                               frame_size=16, oversample=2, contrast=0.15, seed=4,
+                               windows="paper", n_frames=50, dt_us=10_000, grey_video=True),
+                   BuildConfig.from_dict(json.loads((REPO / "data_small" / "config.json")
+                                                    .read_text()))):
+        command = make_data_command(config, "out_dir", "1/4").split()
+        assert command[:4] == ["python", "-m", "e2vlib", "make-data"]
+        args = build_parser().parse_args(command[3:])
+        assert _build_config(args) == config and (args.out, args.shard) == ("out_dir", "1/4")
+
+
+@pytest.mark.parametrize("args, says", [
+    (("--contrast", "0"), r"argument --contrast: must be a finite number > 0, got 0"),
+    (("--grey-video", "yes"), r"unrecognized arguments: yes"),
+])
+def test_make_data_new_options_are_checked_before_writing(capsys, tmp_path, args, says):
+    out = tmp_path / "data"
+    code, _, err = run(capsys, *MAKE, *args, "--out", out)
+    assert code == 2 and re.search(says, err), err
+    assert not out.exists()
+
+
+def test_merge_data_usage_errors(capsys, tmp_path):
+    code, _, err = run(capsys, "merge-data", "--out", tmp_path / "m", tmp_path / "nope")
+    assert code == 2 and f"shard folder {tmp_path / 'nope'}: no such folder" in err
+    code, _, err = run(capsys, "merge-data", "--out", tmp_path / "m")
+    assert code == 2 and "holds no dataset to verify; list the shard folders" in err
+    (tmp_path / "file").write_text("x")
+    code, _, err = run(capsys, "merge-data", "--out", tmp_path / "file", tmp_path)
+    assert code == 2 and "is a file; give a folder" in err
+    code, _, err = run(capsys, "merge-data", "--out", tmp_path / "m", tmp_path)
+    assert code == 1 and "is not a dataset folder (no config.json)" in err
+    assert not (tmp_path / "m").exists()
