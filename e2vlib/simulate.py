@@ -21,6 +21,38 @@ Exact rules implemented here (they make the output reproducible to the microseco
 * output order: by time; ties by the frame pair that made them, then by pixel index
   ``y * W + x``, then by ``k``.
 
+Sensor noise (all off by default; then the output is exactly the noise-free model above).
+The names follow v2e (Hu, Liu, Delbruck, CVPRW 2021), whose command-line options are given
+in brackets:
+
+* threshold mismatch ``contrast_sigma`` [``--sigma_thres``, also accepted as
+  ``sigma_thres=``]: every pixel's ON and OFF thresholds are drawn once from normal
+  distributions around ``contrast_pos`` / ``contrast_neg`` (clipped at
+  :data:`MIN_CONTRAST`), the spread v2e draws (:func:`draw_thresholds`);
+* leak events ``leak_rate_hz`` [``--leak_rate_hz``, Hz per pixel]: as in v2e, each pixel's
+  reference drifts down by ``C_on * leak_rate_hz`` per second, so a static pixel emits ON
+  events at ``leak_rate_hz``. Because the drift is linear in time it is simulated exactly:
+  the pixel's log intensity gets the ramp ``+ C_on * leak_rate_hz * (t - t_us[0])`` and the
+  rules above run unchanged. Each pixel starts at a random phase (its reference is lowered
+  by ``u * C_on``, ``u`` uniform in [0, 1)), so leak events are spread evenly in time
+  instead of firing together;
+* shot noise ``shot_noise_rate_hz`` [``--shot_noise_rate_hz``, Hz per pixel, ON + OFF]:
+  each pixel also emits events as a Poisson process of this rate over ``[t_us[0],
+  t_us[-1])``, at whole microseconds, each ON or OFF with probability 1/2. They do not move
+  the reference (a spurious reset back to the same level). Unlike v2e, the rate is the same
+  for dark and bright pixels;
+* refractory period ``refractory_us`` [``--refractory_period`` in seconds, the emulator's
+  ``refractory_period_s``, also accepted as ``refractory_period_s=``]: applies to signal,
+  leak and shot-noise events alike (a noise event too blocks its pixel).
+
+v2e's finite photoreceptor bandwidth (``--cutoff_hz``), leak jitter and rate spread across
+pixels (``--leak_jitter_fraction``, ``--noise_rate_cov_decades``) and its lin-log intensity
+curve are not modelled. :data:`NOISE_LEVELS` holds presets for a noise study. With
+``seed`` given the noise is reproducible; thresholds come from ``default_rng(seed)`` as
+before and the noise from an independent stream spawned from the same seed, so adding
+noise does not change the thresholds. Within one microsecond and pixel, signal events come
+before shot-noise events.
+
 Memory is bounded: before the events of a frame pair are made, their number is known
 exactly (the sum of ``K``), and a run that would exceed ``max_events`` (default
 :data:`MAX_EVENTS`) raises :class:`TooManyEventsError` with an upper bound for the whole
@@ -53,6 +85,31 @@ frame pair being simulated about 80 bytes per event of its own; a video needing 
 MAX_ABS_TIME_US: int = 2**53
 """Frame times must lie in ``[-MAX_ABS_TIME_US, MAX_ABS_TIME_US]`` (about 285 years): there
 float64, in which event times are interpolated, holds every microsecond exactly."""
+
+
+NOISE_LEVELS: dict[str, dict[str, float]] = {
+    "clean": {"contrast_sigma": 0.0, "shot_noise_rate_hz": 0.0, "leak_rate_hz": 0.0,
+              "refractory_us": 0.0},
+    "low": {"contrast_sigma": 0.03, "shot_noise_rate_hz": 0.001, "leak_rate_hz": 0.01,
+            "refractory_us": 500.0},
+    "medium": {"contrast_sigma": 0.04, "shot_noise_rate_hz": 0.5, "leak_rate_hz": 0.05,
+               "refractory_us": 500.0},
+    "high": {"contrast_sigma": 0.05, "shot_noise_rate_hz": 5.0, "leak_rate_hz": 0.1,
+             "refractory_us": 500.0},
+}
+"""Sensor-noise presets for a noise study: ``simulate_events(video, t, **NOISE_LEVELS[k])``.
+
+* ``clean``: no noise at all, the exact model the datasets are built with (v2e's own
+  ``--dvs_params clean`` keeps a small ``sigma_thres`` of 0.02);
+* ``low``: v2e's command-line defaults, documented there as typical of a DAVIS camera in
+  good light (``--sigma_thres 0.03``, ``--leak_rate_hz 0.01``, ``--shot_noise_rate_hz
+  0.001``, ``--refractory_period 0.0005`` s);
+* ``high``: v2e's ``--dvs_params noisy`` preset (``sigma_thres`` 0.05, leak 0.1 Hz, shot
+  noise 5 Hz per pixel; dim light), with the default 0.5 ms refractory period kept;
+* ``medium``: our choice between the two (about geometric means of the rates).
+
+At the dataset's 128 x 128 px over 0.5 s, ``high`` adds about 41,000 shot-noise and 800
+leak events to the 20,000-30,000 signal events of an object."""
 
 
 class TooManyEventsError(ValueError):
@@ -143,13 +200,14 @@ def draw_thresholds(
     contrast_pos: float = paper.CONTRAST_THRESHOLD,
     contrast_neg: float = paper.CONTRAST_THRESHOLD,
     contrast_sigma: float = 0.0,
-    seed: int | None = None,
+    seed: int | np.random.Generator | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per-pixel ON and OFF thresholds, each float64 of ``shape`` ``(H, W)``.
 
     Normal around ``contrast_pos`` / ``contrast_neg`` with standard deviation
     ``contrast_sigma`` (ON drawn first, then OFF, from ``np.random.default_rng(seed)``),
     clipped from below at :data:`MIN_CONTRAST`. With ``contrast_sigma = 0`` they are constant.
+    ``contrast_sigma`` is v2e's ``sigma_thres`` (a normal spread of both thresholds per pixel).
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
@@ -172,8 +230,13 @@ def simulate_events(
     contrast_sigma: float = 0.0,
     refractory_us: float = 0,
     log_eps: float = 1e-3,
-    seed: int | None = None,
+    seed: int | np.random.Generator | None = None,
     max_events: int = MAX_EVENTS,
+    *,
+    shot_noise_rate_hz: float = 0.0,
+    leak_rate_hz: float = 0.0,
+    sigma_thres: float | None = None,
+    refractory_period_s: float | None = None,
 ) -> np.ndarray:
     """Events (:data:`~e2vlib.events.EVENT_DTYPE`, sorted by ``t``) that ``video`` would make.
 
@@ -186,13 +249,22 @@ def simulate_events(
     ``log_eps`` keeps ``log(I + log_eps)`` finite for black pixels. The exact rules (event
     times, rounding, tie order) are in this module's docstring.
 
+    Sensor noise, off by default (module docstring; presets in :data:`NOISE_LEVELS`):
+    ``shot_noise_rate_hz`` (Hz per pixel, ON + OFF, Poisson) and ``leak_rate_hz`` (Hz per
+    pixel, ON events of a static pixel), both keyword-only and ``>= 0``. v2e's names
+    ``sigma_thres`` (= ``contrast_sigma``) and ``refractory_period_s`` (seconds, =
+    ``refractory_us / 1e6``) are accepted instead of ours. ``seed`` (an int, a
+    ``numpy.random.Generator``, or None for fresh randomness) makes thresholds and noise
+    reproducible.
+
     ``max_events`` (default :data:`MAX_EVENTS`) bounds the memory: each frame pair's events
     are counted before they are made, and a run that would go past the limit raises
     :class:`TooManyEventsError` (a ValueError) naming an upper bound for the whole video;
     raise the contrast thresholds, or ``max_events`` if the memory is there.
 
     Work per frame pair is one comparison of the two frames plus arithmetic on the pixels
-    whose intensity changed and on the events they make; nothing loops over pixels.
+    whose intensity changed and on the events they make; nothing loops over pixels (with
+    leak events every pixel changes in every pair).
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
@@ -200,15 +272,25 @@ def simulate_events(
     n, height, width = v.shape
     t = _check_times(t_us, n)
     eps = _check_positive("log_eps", log_eps)
+    contrast_sigma = _alias("contrast_sigma", contrast_sigma, 0.0, "sigma_thres", sigma_thres)
+    if refractory_period_s is not None:
+        seconds = _check_positive("refractory_period_s", refractory_period_s, allow_zero=True)
+        refractory_us = _alias("refractory_us", refractory_us, 0, "refractory_period_s",
+                               seconds * 1e6)
     refractory = _check_positive("refractory_us", refractory_us, allow_zero=True)
+    shot_rate = _check_positive("shot_noise_rate_hz", shot_noise_rate_hz, allow_zero=True)
+    leak_rate = _check_positive("leak_rate_hz", leak_rate_hz, allow_zero=True)
     if isinstance(max_events, bool) or not isinstance(max_events, (int, np.integer)) \
             or max_events < 0:
         raise ValueError(f"max_events must be a whole number >= 0, got {max_events!r}")
     c_on, c_off = draw_thresholds((height, width), contrast_pos, contrast_neg,
                                   contrast_sigma, seed)
     c_on, c_off = c_on.ravel(), c_off.ravel()
+    n_pixels = height * width
+    noisy = shot_rate > 0 or leak_rate > 0
+    noise_rng = _noise_rng(seed) if noisy else None
 
-    frames = v.reshape(n, height * width)
+    frames = v.reshape(n, n_pixels)
     if v.dtype == np.uint8:
         table = np.log(np.arange(256, dtype=np.float64) / 255.0 + eps)
 
@@ -221,17 +303,34 @@ def simulate_events(
 
     level_now = log_of(frames[0])  # log intensity of the latest frame, per pixel
     reference = level_now.copy()
-    last_t = np.full(height * width, _NEVER, dtype=np.int64)
+    drift = None  # leak: log-intensity ramp per microsecond, per pixel
+    if leak_rate > 0:
+        drift = c_on * (leak_rate * 1e-6)
+        reference -= noise_rng.random(n_pixels) * c_on  # random phase of the first leak event
+    shot = _shot_noise(noise_rng, t, n_pixels, shot_rate, max_events) if shot_rate > 0 \
+        else None
+    n_shot = 0 if shot is None else len(shot[0])
+    last_t = np.full(n_pixels, _NEVER, dtype=np.int64)
     chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     n_made = 0  # events kept so far
     # (time - t_j) * pixels + pixel fits int64 for every pair: one sort key, else lexsort
-    single_key = (int(np.max(np.diff(t))) + 1) * height * width < 2**62
+    single_key = (int(np.max(np.diff(t))) + 1) * n_pixels < 2**62
+    every_pixel = np.arange(n_pixels)
 
     for j in range(n - 1):
-        changed = np.flatnonzero(frames[j] != frames[j + 1])
-        if changed.size == 0:
+        noise = None
+        if shot is not None:
+            lo, hi = np.searchsorted(shot[0], (t[j], t[j + 1]))
+            if hi > lo:
+                noise = (shot[0][lo:hi], shot[1][lo:hi], shot[2][lo:hi])
+        if drift is None:
+            changed = np.flatnonzero(frames[j] != frames[j + 1])
+            l1 = log_of(frames[j + 1][changed])
+        else:  # the leak ramp changes every pixel
+            changed = every_pixel
+            l1 = log_of(frames[j + 1]) + drift * float(t[j + 1] - t[0])
+        if changed.size == 0 and noise is None:
             continue
-        l1 = log_of(frames[j + 1][changed])
         l0 = level_now[changed]
         level_now[changed] = l1
         ref = reference[changed]
@@ -240,17 +339,19 @@ def simulate_events(
         count = np.floor(np.abs(l1 - ref) / contrast)
         count[l1 == l0] = 0  # distinct tiny floats can share one log value: no change
         fire = np.flatnonzero(count > 0)
-        if fire.size == 0:
+        if fire.size == 0 and noise is None:
             continue
         n_pair = float(count[fire].sum())  # exact below 2**53; checked before any cast
-        if n_made + n_pair > max_events:
+        n_noise = 0 if noise is None else len(noise[0])
+        if n_made + n_pair + n_noise > max_events:
             bound = event_count_bound(v, c_on.reshape(height, width),
                                       c_off.reshape(height, width), eps)
+            bound += n_shot + n_pixels * (1 + leak_rate * 1e-6 * float(t[-1] - t[0]))
             raise TooManyEventsError(
                 f"the simulation would make more than max_events={max_events:,} events "
-                f"({n_made + n_pair:,.0f} in the first {j + 1} of {n - 1} frame pairs; up to "
-                f"{bound:,.0f} for the whole video, simulate.event_count_bound), about 30 "
-                "bytes each. Raise the "
+                f"({n_made + n_pair + n_noise:,.0f} in the first {j + 1} of {n - 1} frame "
+                f"pairs; up to {bound:,.0f} for the whole video, simulate.event_count_bound "
+                "plus noise), about 30 bytes each. Raise the "
                 f"contrast thresholds (contrast_pos={contrast_pos:g}, "
                 f"contrast_neg={contrast_neg:g}; the usual range is 0.1-0.5), use a shorter "
                 "or smaller video, or pass a larger max_events if the memory is there")
@@ -272,6 +373,11 @@ def simulate_events(
         pix_e = pix[owner]
         polarity = np.where(signed_c > 0, 1, -1).astype(np.int8)[owner]
 
+        if noise is not None:
+            chunks.append(_merge_noise(times, pix_e, polarity, noise, last_t, refractory,
+                                       n_pixels, t[j], single_key))
+            n_made += len(chunks[-1][0])
+            continue
         if refractory > 0:
             keep = _refractory_mask(times, pix, k_max, starts, last_t, refractory)
             times, pix_e, polarity = times[keep], pix_e[keep], polarity[keep]
@@ -279,13 +385,83 @@ def simulate_events(
         # pixel at the same microsecond with the same polarity: identical events, so an
         # unstable (SIMD) sort still gives a unique result.
         if single_key:
-            order = np.argsort((times - t[j]) * (height * width) + pix_e)
+            order = np.argsort((times - t[j]) * n_pixels + pix_e)
         else:
             order = np.lexsort((pix_e, times))
         chunks.append((times[order], pix_e[order], polarity[order]))
         n_made += len(times)
 
     return _assemble(chunks, width)
+
+
+def _alias(name: str, value: float, default: float, v2e_name: str,
+           v2e_value: float | None) -> float:
+    """``value``, or ``v2e_value`` when the v2e-named argument was given instead."""
+    if v2e_value is None:
+        return value
+    if value != default:
+        raise ValueError(f"give {name} or its v2e name {v2e_name}, not both "
+                         f"({name}={value!r}, {v2e_name}={v2e_value!r})")
+    return v2e_value
+
+
+def _noise_rng(seed: int | np.random.Generator | None) -> np.random.Generator:
+    """The noise's random stream: ``seed``'s own Generator, or a child of its SeedSequence
+    (independent of the thresholds, which :func:`draw_thresholds` draws from the root)."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
+
+
+def _shot_noise(rng: np.random.Generator, t: np.ndarray, n_pixels: int, rate_hz: float,
+                max_events: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Shot-noise events of the whole video as ``(times, pixels, polarities)``, by time.
+
+    A Poisson process of ``rate_hz`` per pixel over ``[t[0], t[-1])`` at whole microseconds:
+    the total is Poisson, and each event gets a uniform time, pixel and polarity.
+    """
+    duration_us = int(t[-1] - t[0])
+    mean = rate_hz * 1e-6 * duration_us * n_pixels
+    if mean > max_events:  # refuse before drawing (an expected count far past the limit)
+        raise TooManyEventsError(
+            f"shot noise of {rate_hz:g} Hz on {n_pixels:,} pixels over {duration_us:,} us "
+            f"makes about {mean:,.0f} events, more than max_events={max_events:,}; lower "
+            "shot_noise_rate_hz (v2e's range is about 0.001-5 Hz) or pass a larger max_events")
+    total = int(rng.poisson(mean))
+    times = rng.integers(t[0], t[-1], size=total, dtype=np.int64)
+    pixels = rng.integers(0, n_pixels, size=total, dtype=np.int64)
+    polarity = np.where(rng.random(total) < 0.5, 1, -1).astype(np.int8)
+    order = np.argsort(times, kind="stable")
+    return times[order], pixels[order], polarity[order]
+
+
+def _merge_noise(
+    times: np.ndarray, pix_e: np.ndarray, polarity: np.ndarray,
+    noise: tuple[np.ndarray, np.ndarray, np.ndarray], last_t: np.ndarray,
+    refractory: float, n_pixels: int, t_start: int, single_key: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One frame pair's signal events (pixel-major rows) joined with its shot noise.
+
+    Both kinds go through the refractory period together, per pixel in time order (signal
+    first within a microsecond); returns the chunk ordered by (time, pixel), stably.
+    """
+    times = np.concatenate([times, noise[0]])
+    pix_e = np.concatenate([pix_e, noise[1]])
+    polarity = np.concatenate([polarity, noise[2]])
+    if refractory > 0:
+        source = np.zeros(len(times), dtype=np.int8)
+        source[len(times) - len(noise[0]):] = 1
+        rows = np.lexsort((source, times, pix_e))  # pixel-major, by time within a pixel
+        times, pix_e, polarity = times[rows], pix_e[rows], polarity[rows]
+        first = np.flatnonzero(np.r_[True, pix_e[1:] != pix_e[:-1]])
+        counts = np.diff(np.r_[first, len(times)])
+        keep = _refractory_mask(times, pix_e[first], counts, first, last_t, refractory)
+        times, pix_e, polarity = times[keep], pix_e[keep], polarity[keep]
+    if single_key:
+        order = np.argsort((times - t_start) * n_pixels + pix_e, kind="stable")
+    else:
+        order = np.lexsort((pix_e, times))
+    return times[order], pix_e[order], polarity[order]
 
 
 def event_count_bound(
