@@ -477,6 +477,8 @@ def _figures(args: argparse.Namespace) -> int:
 def _experiment(args: argparse.Namespace) -> int:
     from e2vlib.experiments import DEFAULT_OUT, STUDIES, format_summary, run_study, summarize
 
+    if args.study == "geometry":
+        return _geometry_study(args)
     if args.study not in STUDIES:
         raise UsageError(f"unknown study {args.study!r}; choose one of {', '.join(STUDIES)}")
     unknown = [c for c in args.configs or () if c not in STUDIES[args.study].configs]
@@ -490,6 +492,24 @@ def _experiment(args: argparse.Namespace) -> int:
                      quick=args.quick, reuse=not args.no_reuse)
     print(f"{path}:")
     print(format_summary(summarize(path)))
+    return 0
+
+
+def _geometry_study(args: argparse.Namespace) -> int:
+    from e2vlib.experiments import DEFAULT_OUT
+    from e2vlib.geometry_study import run_geometry_study, summarize_geometry
+
+    if args.configs or args.quick:
+        raise UsageError("the geometry study has no configs and no quick mode (no training); "
+                         "run `python -m e2vlib experiment geometry`")
+    out = args.out or DEFAULT_OUT
+    _output_folder(str(out), "--out")
+    path = run_geometry_study(out)
+    print(f"{path}:")
+    for row in summarize_geometry(path):
+        low, high = row["ci95"]
+        print(f"  {row['method']:15s} IoU@0.3 {row['mean']:.3f} ({low:.3f}-{high:.3f}, "
+              f"{row['n']} objects)")
     return 0
 
 
@@ -602,7 +622,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("experiment", help="run a study (representation, time, encoder, loss): "
                        "train and evaluate each config and seed, one record per run")
-    p.add_argument("study", help="representation, time, encoder or loss")
+    p.add_argument("study", help="representation, time, encoder, loss, or geometry (no "
+                   "training: visual hull and event carving beside the learned model)")
     p.add_argument("--configs", nargs="+", help="only these configs of the study")
     p.add_argument("--seeds", nargs="+", type=count, default=[0, 1, 2],
                    help="seeds (default 0 1 2)")
