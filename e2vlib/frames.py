@@ -4,17 +4,28 @@ All functions take an event array of :data:`e2vlib.events.EVENT_DTYPE` (sorted b
 microseconds) and ``sensor_size = (width, height)``, validate them, and never modify the
 caller's array. Frames are indexed ``[k, y, x]``; with fixed windows (the default) frame
 ``k`` covers the half-open window ``[t0 + k*dt, t0 + (k+1)*dt)``; ``windows="paper"``
-groups events as the paper's Eq. 5 does (see :func:`accumulate`).
+groups events as the paper's Eq. 5 does (see :func:`accumulate`). :func:`accumulate` runs
+a compiled kernel (:mod:`e2vlib.frames_fast`, numba) where numba is installed; its numpy
+reference, here, gives the same frames (``backend="numpy"``).
 
 Introduced in notebooks/02_event_frames.ipynb.
 """
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from e2vlib import paper
-from e2vlib.events import EventError, check_sensor_size, iter_checked_chunks, validate
+from e2vlib.events import (
+    INT64_MAX,
+    INT64_MIN,
+    EventError,
+    check_sensor_size,
+    iter_checked_chunks,
+    validate,
+)
 
 MODES = ("binary", "count", "polarity")
 
@@ -156,6 +167,20 @@ MAX_FRAMES_BYTES: int = 8 * 2**30
 """Largest frame stack :func:`accumulate` allocates (8 GiB); larger requests raise EventError."""
 
 WINDOWS = ("fixed", "paper")
+BACKENDS = ("auto", "numba", "numpy")
+
+
+@functools.cache
+def _fast_kernels():
+    """The compiled kernels (:mod:`e2vlib.frames_fast`), or None where numba is missing.
+
+    Imported on the first fast call, not with this module: importing numba takes a while.
+    """
+    try:
+        from e2vlib import frames_fast
+    except ImportError:
+        return None
+    return frames_fast
 
 
 def accumulate(
@@ -166,6 +191,7 @@ def accumulate(
     n_frames: int | None = None,
     mode: str = "binary",
     windows: str = paper.FRAME_WINDOWS,
+    backend: str = "auto",
 ) -> np.ndarray:
     """Accumulate events into a stack of frames, one per time window of ``dt_us``.
 
@@ -186,6 +212,13 @@ def accumulate(
     ``t0_us`` defaults to the first event's time (events before it are left out);
     ``n_frames`` to as many windows or groups as cover the last event. Events outside the
     windows are left out. The frame stack may not exceed :data:`MAX_FRAMES_BYTES`.
+
+    Backends give identical frames: ``"numpy"`` is the plain reference written out below
+    (vectorized blocks and one ``np.bincount``; read it to see how frames are made);
+    ``"numba"`` runs the compiled single pass of :mod:`e2vlib.frames_fast`, about twice as
+    fast for counts (bench/RESULTS.md; the first call on a machine compiles it, a few
+    seconds, then it is cached on disk);
+    ``"auto"`` (default) is numba where it is installed, numpy otherwise.
     Introduced in notebooks/02_event_frames.ipynb.
 
     Examples
@@ -196,30 +229,48 @@ def accumulate(
     [[1, 1], [0, 1], [1, 0]]
     >>> accumulate(ev, (2, 1), dt_us=5, mode="count", windows="paper")[:, 0].tolist()
     [[1, 1], [1, 1]]
+    >>> accumulate(ev, (2, 1), dt_us=5, mode="count", backend="numpy")[:, 0].tolist()
+    [[1, 1], [0, 1], [1, 0]]
     """
     width, height = check_sensor_size(sensor_size)
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if windows not in WINDOWS:
         raise ValueError(f"windows must be one of {WINDOWS}, got {windows!r}")
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if not isinstance(events, np.ndarray) or events.ndim != 1:
         validate(events, (width, height))  # raises a named EventError for wrong shapes/dtypes
+    validate(events[:0], (width, height))  # the dtype, before reading any field
+    kernels = None if backend == "numpy" else _fast_kernels()
+    if backend == "numba" and kernels is None:
+        raise ModuleNotFoundError(
+            "accumulate(backend='numba') needs numba: pip install -r "
+            "environment/requirements.txt, or pass backend='numpy'")
     channels = 2 if mode == "polarity" else 1
     if len(events) == 0:  # nothing to read; still check dtype and arguments
         validate(events, (width, height))
     t = events["t"]
+    bounds = None
     if windows == "fixed":
         dt, t0, n = _resolve_windows(events, dt_us, t0_us, n_frames)
-        bounds = None
     else:
         dt = _check_dt(dt_us)
         t0 = int(t[0]) if t0_us is None and len(t) else int(t0_us or 0)
         n_wanted = None if n_frames is None else _check_n_frames(n_frames)
-        first = int(searchsorted_left(t, [t0])[0])
-        bounds = paper_group_bounds(t, dt, start=first, n_groups=n_wanted)
-        n = len(bounds) - 1 if n_wanted is None else n_wanted
-    plane = height * width
-    frame_elements = channels * plane
+    # the kernels do int64 arithmetic: times past that range (never met in practice) take
+    # the reference path, which works with Python integers
+    if kernels is not None and not (INT64_MIN <= t0 <= INT64_MAX and dt <= INT64_MAX):
+        kernels = None
+    if windows == "paper":
+        if kernels is not None:
+            counted = kernels.count_groups(t, t0, dt) if len(t) else 0
+            n = counted if n_wanted is None else n_wanted
+        else:
+            first = int(searchsorted_left(t, [t0])[0])
+            bounds = paper_group_bounds(t, dt, start=first, n_groups=n_wanted)
+            n = len(bounds) - 1 if n_wanted is None else n_wanted
+    frame_elements = channels * height * width
     itemsize = 1 if mode == "binary" else 4
     if n * frame_elements * itemsize > MAX_FRAMES_BYTES:
         raise EventError(
@@ -228,9 +279,39 @@ def accumulate(
             f"{MAX_FRAMES_BYTES / 2**30:.0f} GiB, frames.MAX_FRAMES_BYTES); check dt_us and "
             f"t0_us against the event times ({int(t[0]) if len(t) else 0}.."
             f"{int(t[-1]) if len(t) else 0} us) or pass n_frames")
+    shape = (n, 2, height, width) if mode == "polarity" else (n, height, width)
+    if kernels is not None and len(events) == 0:  # checked above; no kernel for no events
+        return np.zeros(shape, dtype=np.uint8 if mode == "binary" else np.int32)
+    if kernels is not None:
+        binary = mode == "binary"
+        out = np.zeros(n * frame_elements, dtype=np.uint8 if binary else np.int32)
+        scratch = np.zeros(frame_elements, dtype=np.uint8 if binary else np.uint16)
+        touched = np.empty(max(height * width // 16, 1), dtype=np.int64)
+        if not kernels.fill(events["x"], events["y"], t, events["p"], out, scratch, touched,
+                            width, height, t0, dt, n, windows == "paper", binary,
+                            mode == "polarity"):
+            validate(events, (width, height))  # raises the detailed EventError
+            raise AssertionError("the numba kernel rejected events that validate() accepts")
+        return out.reshape(shape)
+    return _accumulate_numpy(events, (width, height), t0, dt, n, mode, bounds).reshape(shape)
+
+
+def _accumulate_numpy(events: np.ndarray, sensor_size: tuple[int, int], t0: int, dt: int,
+                      n: int, mode: str, bounds: np.ndarray | None) -> np.ndarray:
+    """The numpy reference of :func:`accumulate`: flat frames ``(n * C * H * W,)``.
+
+    Fixed windows of ``dt`` us from ``t0`` when ``bounds`` is None, else the Eq. 5 groups
+    given by their event-index ``bounds`` (from :func:`paper_group_bounds`).
+    """
+    width, height = sensor_size
+    plane = height * width
+    frame_elements = (2 if mode == "polarity" else 1) * plane
+    t = events["t"]
     # Sorted times: the events inside the windows are one contiguous slice [lo, hi).
     if bounds is None:
-        lo, hi = searchsorted_left(t, [t0, t0 + n * dt])
+        end = t0 + n * dt  # may pass the int64 range: then every event is before it
+        lo, hi = searchsorted_left(t, [t0, min(end, INT64_MAX)])
+        hi = len(t) if end > INT64_MAX else hi
     else:
         lo, hi = int(bounds[0]), int(bounds[-1])
 
@@ -259,10 +340,8 @@ def accumulate(
         else:
             indices[start + a - lo:start + b - lo] = flat
     if binary is not None:
-        return binary.reshape(n, height, width)
-    counts = np.bincount(indices, minlength=n * frame_elements).astype(np.int32)
-    shape = (n, 2, height, width) if mode == "polarity" else (n, height, width)
-    return counts.reshape(shape)
+        return binary
+    return np.bincount(indices, minlength=n * frame_elements).astype(np.int32)
 
 
 def time_surface(

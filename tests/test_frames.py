@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from e2vlib import frames
 from e2vlib.events import EventError, make_events
 from e2vlib.frames import accumulate, downsample, time_surface, voxel_grid, window_count
 
@@ -217,3 +218,125 @@ def test_huge_frame_stacks_are_refused_before_allocating():
     ev = make_events([0], [0], [86_400_000_000], [1])
     with pytest.raises(EventError, match="GiB"):
         accumulate(ev, (64, 64), dt_us=1, t0_us=0)
+
+
+# --- backends: the compiled kernel (numba) against the numpy reference ---------------------
+
+BACKENDS = ["numpy", pytest.param("numba", marks=pytest.mark.skipif(
+    frames._fast_kernels() is None, reason="numba is not installed"))]
+needs_numba = pytest.mark.skipif(frames._fast_kernels() is None, reason="numba is not installed")
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_each_backend_gives_the_hand_computed_frames(small_events, backend):
+    ev, size = small_events, (4, 3)
+    binary = accumulate(ev, size, dt_us=5000, backend=backend)
+    expected = np.zeros((3, 3, 4), dtype=np.uint8)
+    expected[0, 0, 0] = expected[0, 0, 1] = expected[1, 2, 3] = expected[1, 1, 0] = 1
+    expected[2, 2, 2] = 1
+    np.testing.assert_array_equal(binary, expected)
+    assert binary.dtype == np.uint8
+    counts = accumulate(ev, size, dt_us=5000, mode="count", backend=backend)
+    assert counts.dtype == np.int32 and counts[0, 0, 1] == 2 and counts.sum() == 6
+    pol = accumulate(ev, size, dt_us=5000, mode="polarity", backend=backend)
+    assert pol.shape == (3, 2, 3, 4) and pol.dtype == np.int32
+    assert pol[0, 0, 0, 1] == pol[0, 1, 0, 1] == pol[0, 1, 0, 0] == pol[2, 0, 2, 2] == 1
+    np.testing.assert_array_equal(pol.sum(axis=1), counts)
+    # t0 and n_frames: only [5000, 10000) is kept; padding windows after the events are empty
+    one = accumulate(ev, size, dt_us=5000, t0_us=5000, n_frames=1, mode="count", backend=backend)
+    assert one.shape == (1, 3, 4) and one.sum() == 2
+    padded = accumulate(ev, size, dt_us=5000, t0_us=0, n_frames=5, mode="count",
+                        backend=backend)
+    assert padded.shape == (5, 3, 4) and padded[:3].sum() == 6 and padded[3:].sum() == 0
+    assert accumulate(ev, size, dt_us=5000, n_frames=0, backend=backend).shape == (0, 3, 4)
+    late = accumulate(ev, size, dt_us=1000, t0_us=100_000, n_frames=3, backend=backend)
+    assert late.shape == (3, 3, 4) and late.sum() == 0
+    for mode, shape in (("binary", (0, 3, 4)), ("polarity", (0, 2, 3, 4))):
+        assert accumulate(ev[:0], size, mode=mode, backend=backend).shape == shape
+        assert accumulate(ev[:0], size, mode=mode, windows="paper", backend=backend).shape == shape
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_each_backend_gives_the_hand_computed_paper_groups(backend):
+    ev = make_events([0, 1, 2, 3, 0, 1], [0] * 6, [0, 3, 5, 6, 11, 20], [1, 1, -1, 1, 1, -1])
+    kw = {"dt_us": 5, "windows": "paper", "backend": backend}
+    counts = accumulate(ev, (4, 1), mode="count", **kw)
+    assert counts[:, 0].tolist() == [[1, 1, 1, 0], [1, 0, 0, 1], [0, 1, 0, 0]]
+    pol = accumulate(ev, (4, 1), mode="polarity", **kw)
+    assert pol[:, 0, 0].tolist() == [[0, 0, 1, 0], [0, 0, 0, 0], [0, 1, 0, 0]]  # OFF
+    assert pol[:, 1, 0].tolist() == [[1, 1, 0, 0], [1, 0, 0, 1], [0, 0, 0, 0]]  # ON
+    # n_frames pads at the end and drops later groups; t0 leaves out earlier events
+    padded = accumulate(ev, (4, 1), mode="count", n_frames=4, **kw)
+    assert padded[:, 0].tolist() == counts[:, 0].tolist() + [[0, 0, 0, 0]]
+    assert accumulate(ev, (4, 1), mode="count", n_frames=1, **kw)[:, 0].tolist() == [[1, 1, 1, 0]]
+    late = accumulate(ev, (4, 1), mode="count", t0_us=4, **kw)  # groups {5, 6} {11} {20}
+    assert late[:, 0].tolist() == [[0, 0, 1, 1], [1, 0, 0, 0], [0, 1, 0, 0]]
+    gaps = make_events([0, 0, 0], [0, 0, 0], [0, 1_000, 1_000_000], [1, -1, 1])
+    assert accumulate(gaps, (1, 1), dt_us=5000, windows="paper", backend=backend).shape[0] == 2
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_each_backend_counts_past_uint16_and_times_at_the_int64_ends(backend):
+    # 70,000 events on one pixel in one window: more than the kernel's uint16 scratch holds
+    n = 70_000
+    ev = make_events(np.zeros(n, int), np.zeros(n, int), np.arange(n) // 10, np.ones(n, int))
+    counts = accumulate(ev, (3, 2), dt_us=10_000, mode="count", backend=backend)
+    assert counts.shape == (1, 2, 3) and counts[0, 0, 0] == n and counts.sum() == n
+    pol = accumulate(ev, (3, 2), dt_us=10_000, mode="polarity", windows="paper",
+                     backend=backend)
+    assert pol[0, 1, 0, 0] == n and pol.sum() == n
+    # times at both ends of int64: the span overflows int64, windows of 2^62 us still work
+    lo, hi = np.iinfo(np.int64).min, np.iinfo(np.int64).max
+    ends = make_events([0, 1, 1], [0, 0, 0], [lo, 0, hi], [1, -1, 1])
+    wide = accumulate(ends, (2, 1), dt_us=2**62, mode="count", backend=backend)
+    assert wide[:, 0].tolist() == [[1, 0], [0, 0], [0, 1], [0, 1]]
+    groups = accumulate(ends, (2, 1), dt_us=2**63, mode="count", windows="paper",
+                        backend=backend)
+    assert groups[:, 0].tolist() == [[1, 1], [0, 1]]  # 0 - lo = 2^63 <= dt; hi - 0 < dt too
+
+
+@needs_numba
+def test_backends_raise_the_same_errors(small_events):
+    bad_p = small_events.copy()
+    bad_p["p"][2] = 0
+    wrong_dtype = np.zeros(3, dtype=[("x", "<i8"), ("y", "<i8"), ("t", "<i8"), ("p", "<i8")])
+    cases = [(small_events, (2, 2)), (small_events[::-1], (4, 3)), (bad_p, (4, 3)),
+             (wrong_dtype, (4, 3)), (np.zeros(3), (4, 3))]
+    for events, size in cases:
+        for windows in ("fixed", "paper"):
+            messages = []
+            for backend in ("numpy", "numba"):
+                with pytest.raises(EventError) as err:
+                    accumulate(events, size, windows=windows, mode="count", backend=backend)
+                messages.append(str(err.value))
+            assert messages[0] == messages[1]
+
+
+def test_auto_backend_falls_back_to_numpy_without_numba(monkeypatch, random_events):
+    ev, size = random_events
+    expected = accumulate(ev, size, mode="polarity", backend="numpy")
+    monkeypatch.setattr(frames, "_fast_kernels", lambda: None)
+    np.testing.assert_array_equal(accumulate(ev, size, mode="polarity"), expected)
+    with pytest.raises(ModuleNotFoundError, match="backend='numpy'"):
+        accumulate(ev, size, backend="numba")
+    with pytest.raises(ValueError, match="backend must be one of"):
+        accumulate(ev, size, backend="cuda")
+
+
+@needs_numba
+@pytest.mark.parametrize("windows", ["fixed", "paper"])
+@pytest.mark.parametrize("mode", ["binary", "count", "polarity"])
+def test_backends_agree_on_sparse_and_busy_frames(mode, windows):
+    # a big sensor with a few events per frame (flushed event by event) and bursts that
+    # fill frames (flushed pixel by pixel), with gaps, repeated times and a t0 inside
+    rng = np.random.default_rng(7)
+    t = np.sort(np.concatenate([rng.integers(0, 200_000, 300),
+                                rng.integers(300_000, 310_000, 40_000), [400_000] * 5]))
+    ev = make_events(rng.integers(0, 96, len(t)), rng.integers(0, 64, len(t)), t,
+                     rng.choice([-1, 1], len(t)))
+    for t0, n in ((None, None), (150_000, None), (0, 7), (5_000, 300)):
+        kw = {"dt_us": 3_000, "t0_us": t0, "n_frames": n, "mode": mode, "windows": windows}
+        ref = accumulate(ev, (96, 64), backend="numpy", **kw)
+        fast = accumulate(ev, (96, 64), backend="numba", **kw)
+        assert fast.dtype == ref.dtype and fast.shape == ref.shape
+        np.testing.assert_array_equal(fast, ref)

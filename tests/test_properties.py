@@ -14,7 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from e2vlib.events import EVENT_DTYPE, INT64_MAX, INT64_MIN, make_events
+from e2vlib import frames
+from e2vlib.events import EVENT_DTYPE, INT64_MAX, INT64_MIN, EventError, make_events
 from e2vlib.frames import accumulate
 from e2vlib.io import load_events, save_events
 
@@ -153,3 +154,79 @@ def test_binary_at_most_count_and_polarity_channels_sum_to_count(stream, dt, win
         inside = _eq5_inside(t, dt, start, n_frames)
     assert int(polarity[:, 0].sum()) == int(np.count_nonzero(inside & (events["p"] == -1)))
     assert int(polarity[:, 1].sum()) == int(np.count_nonzero(inside & (events["p"] == 1)))
+
+
+# --- the compiled kernel (numba) equals the numpy reference ---------------------------------
+
+needs_numba = pytest.mark.skipif(frames._fast_kernels() is None, reason="numba is not installed")
+
+
+def _outcome(events, sensor_size, **kwargs):
+    """``accumulate``'s frames, or the text of the EventError it raised."""
+    try:
+        return accumulate(events, sensor_size, **kwargs)
+    except EventError as err:
+        return str(err)
+
+
+def _assert_same(reference, fast):
+    if isinstance(reference, str) or isinstance(fast, str):
+        assert fast == reference
+        return
+    assert fast.dtype == reference.dtype and fast.shape == reference.shape
+    np.testing.assert_array_equal(fast, reference)
+
+
+@needs_numba
+@SETTINGS
+@given(stream=SMALL_STREAMS, dt=st.integers(1, 5_000),
+       t0_shift=st.one_of(st.none(), st.integers(-3_000, 20_000)),
+       n_frames=st.one_of(st.none(), st.integers(0, 40)),
+       mode=st.sampled_from(["binary", "count", "polarity"]),
+       windows=st.sampled_from(["fixed", "paper"]))
+def test_numba_and_numpy_backends_give_identical_frames(stream, dt, t0_shift, n_frames, mode,
+                                                        windows):
+    events, sensor_size, offset = _shifted(stream)
+    kwargs = {"dt_us": dt, "t0_us": None if t0_shift is None else offset + t0_shift,
+              "n_frames": n_frames, "mode": mode, "windows": windows}
+    _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs),
+                 _outcome(events, sensor_size, backend="numba", **kwargs))
+
+
+@needs_numba
+@SETTINGS
+@given(stream=event_streams(max_events=12, max_side=6), dt=st.integers(1, 2**63 - 1),
+       n_frames=st.one_of(st.none(), st.integers(0, 6)),
+       mode=st.sampled_from(["binary", "count", "polarity"]),
+       windows=st.sampled_from(["fixed", "paper"]))
+def test_backends_agree_anywhere_in_the_int64_time_range(stream, dt, n_frames, mode, windows):
+    # times anywhere in int64, windows up to 2^63 us: spans that overflow int64 arithmetic,
+    # and stacks too large to allocate (both backends must refuse them alike)
+    events, sensor_size = stream
+    kwargs = {"dt_us": dt, "n_frames": n_frames, "mode": mode, "windows": windows}
+    _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs),
+                 _outcome(events, sensor_size, backend="numba", **kwargs))
+
+
+@needs_numba
+@SETTINGS
+@given(stream=SMALL_STREAMS, broken=st.sampled_from(["x", "y", "p", "t"]),
+       where=st.floats(0, 1), windows=st.sampled_from(["fixed", "paper"]))
+def test_backends_reject_broken_events_alike(stream, broken, where, windows):
+    events, sensor_size, _ = _shifted(stream)
+    if len(events) < 2:
+        return
+    events = events.copy()
+    i = min(int(where * len(events)), len(events) - 1)
+    if broken == "x":
+        events["x"][i] = sensor_size[0]
+    elif broken == "y":
+        events["y"][i] = sensor_size[1]
+    elif broken == "p":
+        events["p"][i] = 0
+    else:
+        events["t"][i] = events["t"][i - 1] - 1 if i else events["t"][1] + 1
+    reference = _outcome(events, sensor_size, dt_us=500, windows=windows, backend="numpy")
+    assert isinstance(reference, str)
+    assert _outcome(events, sensor_size, dt_us=500, windows=windows,
+                    backend="numba") == reference
