@@ -23,11 +23,14 @@ Introduced in notebooks/03_simulating_events.ipynb.
 
 from __future__ import annotations
 
+import atexit
+import collections
 import ctypes.util
 import functools
 import math
 import os
 import sys
+import threading
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -250,12 +253,182 @@ def _add_lights(plotter) -> None:
 
 
 def _aim(camera, position: np.ndarray) -> None:
-    """Put the VTK camera at ``position`` looking at the origin, +z up, paper's lens."""
-    camera.position = tuple(float(v) for v in position)
-    camera.focal_point = (0.0, 0.0, 0.0)
-    camera.up = (0.0, 0.0, 1.0)
-    camera.view_angle = VIEW_ANGLE_DEG
-    camera.clipping_range = _CLIPPING_RANGE
+    """Put the VTK camera at ``position`` looking at the origin, +z up, paper's lens.
+
+    Plain VTK calls (``camera`` is a ``vtkCamera``, pyvista's included): the same camera
+    state as pyvista's property setters, without their per-call Python overhead."""
+    camera.SetPosition(float(position[0]), float(position[1]), float(position[2]))
+    camera.SetFocalPoint(0.0, 0.0, 0.0)
+    camera.SetViewUp(0.0, 0.0, 1.0)
+    camera.SetViewAngle(VIEW_ANGLE_DEG)
+    camera.SetClippingRange(*_CLIPPING_RANGE)
+
+
+class _Scene:
+    """One off-screen plotter set up for the orbit, reusable for many meshes.
+
+    Holds what does not depend on the mesh: window size, anti-aliasing, white background,
+    the three lights and the camera's lens. :meth:`render` adds the mesh, renders every
+    camera position and removes the mesh again (all actors and scalar bars), so the next
+    mesh finds the scene as it was made. Frames are read straight from the front buffer
+    (``vtkRenderWindow.GetPixelData``, the buffer pyvista's ``screenshot`` reads) into one
+    reused array; the pixels are the same as ``screenshot``'s.
+    """
+
+    def __init__(self, resolution: int, anti_aliasing: str) -> None:
+        import pyvista as pv
+
+        headless_opengl_window()
+        self.pid = os.getpid()
+        self.resolution = resolution
+        self.factor = SUPERSAMPLE_FACTOR if anti_aliasing == "supersample" else 1
+        size = resolution * self.factor
+        self.plotter = pv.Plotter(off_screen=True, notebook=False, window_size=(size, size),
+                                  lighting="none")
+        self.fresh = True  # pyvista has not done its first render yet
+        try:
+            if anti_aliasing == "ssaa":
+                self.plotter.enable_anti_aliasing("ssaa")
+            elif anti_aliasing in ("supersample", "none"):
+                self.plotter.render_window.SetMultiSamples(0)  # one sample per pixel
+            # "msaa": the window's multisampling as pyvista sets it (its theme's 8 samples)
+            self.plotter.set_background(_BACKGROUND)
+            _add_lights(self.plotter)
+        except BaseException:
+            self.close()
+            raise
+        from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
+
+        self.pixels = vtkUnsignedCharArray()
+
+    @property
+    def usable(self) -> bool:
+        """Open, and made by this process (a forked child never touches its parent's GL)."""
+        return self.pid == os.getpid() and self.plotter.render_window is not None
+
+    def close(self) -> None:
+        self.plotter.close()
+
+    def render(self, poly, cameras: np.ndarray, video: np.ndarray) -> None:
+        """Render ``poly`` from every position in ``cameras`` into ``video`` (n, res, res)."""
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+
+        res, f = self.resolution, self.factor
+        size = res * f
+        plotter = self.plotter
+        try:
+            plotter.add_mesh(poly, smooth_shading=False, **_MATERIAL)
+            window = plotter.render_window
+            camera = plotter.renderer.GetActiveCamera()
+            for i, position in enumerate(cameras):
+                _aim(camera, position)
+                if self.fresh:  # pyvista sets itself up on the first render, may move the camera
+                    plotter.screenshot(return_img=True)
+                    self.fresh = False
+                    _aim(camera, position)
+                window.Render()
+                window.GetPixelData(0, 0, size - 1, size - 1, 1, self.pixels, 0)
+                rgb = vtk_to_numpy(self.pixels).reshape(size, size, -1)[::-1, :, :3]  # top first
+                if f == 1:
+                    gray = np.rint(rgb.astype(np.float64) @ _LUMA)
+                else:  # mean of each f x f block of samples, then 8-bit levels
+                    fine = rgb.astype(np.float32) @ _LUMA.astype(np.float32)
+                    gray = np.rint(fine.reshape(res, f, res, f).mean(axis=(1, 3)))
+                video[i] = gray.astype(np.float32) / np.float32(255.0)
+        finally:
+            if plotter.render_window is not None:
+                plotter.clear_actors()
+                plotter.scalar_bars.clear()
+
+
+ANTI_ALIASING = ("ssaa", "msaa", "supersample", "none")
+"""Values of :func:`render_orbit`'s ``anti_aliasing`` (``True`` means ``"ssaa"``, ``False``
+``"msaa"``, which is what ``False`` has always rendered)."""
+SUPERSAMPLE_FACTOR = 2
+"""``anti_aliasing="supersample"`` renders this many times larger on each side, without
+VTK's anti-aliasing, and averages each block of samples."""
+
+
+def _anti_aliasing(value) -> str:
+    """A mode of :data:`ANTI_ALIASING`; any non-string counts by its truth, as it always did."""
+    if not isinstance(value, str):
+        return "ssaa" if value else "msaa"
+    if value in ANTI_ALIASING:
+        return value
+    raise ValueError(f"anti_aliasing must be True, False or one of {ANTI_ALIASING}, "
+                     f"got {value!r}")
+
+
+_SCENES: collections.OrderedDict[tuple, _Scene] = collections.OrderedDict()
+_SCENES_LOCK = threading.Lock()
+MAX_CACHED_PLOTTERS = 4
+"""Off-screen plotters :func:`render_orbit` keeps for reuse (one per resolution and
+anti-aliasing setting, least recently used dropped first)."""
+
+
+def release_plotters() -> int:
+    """Close the off-screen plotters :func:`render_orbit` keeps for reuse; return how many.
+
+    They are made again on demand; call this to free their OpenGL memory. Runs at exit.
+    """
+    with _SCENES_LOCK:
+        scenes = list(_SCENES.values())
+        _SCENES.clear()
+    for scene in scenes:
+        if scene.usable:
+            scene.close()
+    return len(scenes)
+
+
+atexit.register(release_plotters)
+
+
+def _cached_scene(resolution: int, anti_aliasing: str) -> _Scene:
+    """The reusable scene for these settings (call with ``_SCENES_LOCK`` held)."""
+    import pyvista as pv
+
+    # pv.Plotter is in the key so that a replaced (e.g. test-patched) class is honoured
+    key = (pv.Plotter, resolution, anti_aliasing)
+    scene = _SCENES.pop(key, None)
+    if scene is not None and not scene.usable:
+        if scene.pid == os.getpid():
+            scene.close()
+        scene = None
+    if scene is None:
+        scene = _Scene(resolution, anti_aliasing)
+    _SCENES[key] = scene  # most recently used last
+    while len(_SCENES) > MAX_CACHED_PLOTTERS:
+        _, old = _SCENES.popitem(last=False)
+        if old.usable:
+            old.close()
+    return scene
+
+
+def _render_frames(poly, cameras: np.ndarray, resolution: int, anti_aliasing: str,
+                   reuse_plotter: bool) -> np.ndarray:
+    """``(len(cameras), res, res)`` float32 gray frames of ``poly``."""
+    video = np.empty((len(cameras), resolution, resolution), dtype=np.float32)
+    if reuse_plotter and _SCENES_LOCK.acquire(blocking=False):
+        try:
+            scene = _cached_scene(resolution, anti_aliasing)
+            try:
+                scene.render(poly, cameras, video)
+            except BaseException:  # never reuse a plotter that failed half-way
+                for key, value in list(_SCENES.items()):
+                    if value is scene:
+                        del _SCENES[key]
+                scene.close()
+                raise
+        finally:
+            _SCENES_LOCK.release()
+        return video
+    # another thread is rendering with the cached plotters, or reuse is off: a private one
+    scene = _Scene(resolution, anti_aliasing)
+    try:
+        scene.render(poly, cameras, video)
+    finally:
+        scene.close()
+    return video
 
 
 _OPENGL_WINDOW = "VTK_DEFAULT_OPENGL_WINDOW"
@@ -320,16 +493,23 @@ def render_orbit(
     fps: float = paper.VIDEO_FPS,
     resolution: int = 256,
     oversample: int = 1,
-    anti_aliasing: bool = True,
+    anti_aliasing: bool | str = True,
     *,
     n_frames: int | None = None,
+    reuse_plotter: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Render ``mesh`` along the spiral orbit; return ``(video, t_us)``.
 
     ``mesh`` is a ``trimesh.Trimesh`` or ``pyvista.PolyData`` in metres (not re-normalized
     here). One off-screen plotter (``resolution`` x ``resolution`` px, view angle
     :data:`VIEW_ANGLE_DEG`, white background, grey diffuse material, a sun-like directional
-    light plus lights above and below) is reused for every frame and always closed.
+    light plus lights above and below) renders every frame. With ``reuse_plotter`` (the
+    default) that plotter is kept, per resolution and ``anti_aliasing``, for the next call
+    in this process (the mesh is removed after each call, the lights and background stay;
+    :func:`release_plotters` closes them): making a plotter costs about 0.02 s, the first
+    one in a process (OpenGL and shader set-up) several tenths. The pixels are the same
+    either way. ``reuse_plotter=False`` makes a fresh plotter and
+    closes it at the end.
 
     ``video`` has shape ``(n, resolution, resolution)``, float32 gray in [0, 1] holding
     8-bit levels (``k / 255``), indexed ``[frame, row, column]`` with row 0 at the top;
@@ -338,8 +518,19 @@ def render_orbit(
     the same time span is sampled ``k`` times more densely: ``n = k * (n_video_frames - 1) + 1``
     frames at ``k * fps`` along the same spiral, so ``video[::k]`` equals the plain render
     and an event simulator sees the object move at most about 1 px per frame (see
-    :func:`pixel_motion_per_frame`). ``anti_aliasing`` uses VTK's supersampling, which
-    smooths edges so they do not flicker as the object turns.
+    :func:`pixel_motion_per_frame`).
+
+    ``anti_aliasing`` smooths edges so they do not flicker as the object turns:
+    ``True`` or ``"ssaa"`` (the default, what the datasets are built with) is VTK's
+    supersampling pass (an image sqrt(5) x larger on each side, filtered back down);
+    ``False`` or ``"msaa"`` is the window's multisampling as pyvista sets it up (8 samples
+    asked for; Mesa's CPU renderer llvmpipe gives 4); ``"supersample"`` renders
+    :data:`SUPERSAMPLE_FACTOR` x larger on each side with one sample per pixel and
+    averages each 2 x 2 block of gray values here; ``"none"`` takes one sample per pixel
+    (aliased edges flicker and make extra events). On a CPU renderer ``"msaa"`` and
+    ``"supersample"`` take about half the time of ``"ssaa"``; their edges are a little
+    sharper, so an event simulator sees a few % fewer or more events (see
+    bench/bench_dataset.py).
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
@@ -354,35 +545,14 @@ def render_orbit(
             f"fps x oversample = {k * float(fps):g} frames/s puts several frames in one "
             f"microsecond, so their whole-microsecond time stamps would coincide; use "
             f"fps <= {1e6 / k:g}")
+    aa = _anti_aliasing(anti_aliasing)
     poly = to_polydata(mesh)
     _check_in_view(poly.bounds)
     n_out = _n_rendered(n, k)
     cameras = _spiral(_orbit_s(n_out))
     t_us = np.round(np.arange(n_out) * 1e6 / (k * float(fps))).astype(np.int64)
 
-    import pyvista as pv
-
-    headless_opengl_window()
-    video = np.empty((n_out, res, res), dtype=np.float32)
-    plotter = pv.Plotter(off_screen=True, notebook=False, window_size=(res, res),
-                         lighting="none")
-    try:
-        if anti_aliasing:
-            plotter.enable_anti_aliasing("ssaa")
-        plotter.set_background(_BACKGROUND)
-        plotter.add_mesh(poly, smooth_shading=False, **_MATERIAL)
-        _add_lights(plotter)
-        for i, position in enumerate(cameras):
-            _aim(plotter.camera, position)
-            if i == 0:  # pyvista sets itself up on the first render and may move the camera
-                plotter.screenshot(return_img=True)
-                _aim(plotter.camera, position)
-            plotter.render()
-            rgb = plotter.screenshot(return_img=True)
-            gray = np.rint(rgb[..., :3].astype(np.float64) @ _LUMA)
-            video[i] = gray.astype(np.float32) / np.float32(255.0)
-    finally:
-        plotter.close()
+    video = _render_frames(poly, cameras, res, aa, reuse_plotter)
     if float(video.max() - video.min()) < 1.0 / 255.0:
         raise ValueError(
             "the rendered video is blank (every pixel the same grey): the object is not in "

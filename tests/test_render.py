@@ -8,12 +8,15 @@ import numpy as np
 import pytest
 import trimesh
 
+from e2vlib import render
 from e2vlib.render import (
+    ANTI_ALIASING,
     VIEW_ANGLE_DEG,
     orbit_angles,
     orbit_cameras,
     pixel_motion_per_frame,
     project_points,
+    release_plotters,
     render_orbit,
     required_oversample,
 )
@@ -176,6 +179,7 @@ def test_plotter_closed_when_rendering_fails(monkeypatch):
     with pytest.raises(RuntimeError, match="boom"):
         render_orbit(upright_cone(), n_frames=2, resolution=16)
     assert len(made) == 1 and made[0].render_window is None  # closed
+    assert all(scene.plotter is not made[0] for scene in render._SCENES.values())  # not kept
 
 
 @pytest.mark.parametrize(
@@ -217,3 +221,63 @@ def test_render_refuses_objects_the_orbit_cannot_frame(scale, offset, problem):
     mesh.apply_translation(offset)
     with pytest.raises(ValueError, match=problem):
         render_orbit(mesh, n_video_frames=3, resolution=16)
+
+
+def test_reused_plotter_renders_each_mesh_as_a_fresh_one(cone_video):
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=0.3)
+    fresh_ball, _ = render_orbit(ball, n_frames=3, resolution=RES, reuse_plotter=False)
+    cached_ball, _ = render_orbit(ball, n_frames=3, resolution=RES)  # after the cone's render
+    np.testing.assert_array_equal(cached_ball, fresh_ball)
+    again, _ = render_orbit(upright_cone(), n_frames=3, resolution=RES)  # after the ball
+    np.testing.assert_array_equal(again, cone_video[0])
+    scenes = [s for s in render._SCENES.values() if s.resolution == RES]
+    assert len(scenes) == 1  # one plotter for this resolution and anti-aliasing, reused
+    plotter = scenes[0].plotter
+    assert plotter.render_window is not None and len(plotter.renderer.actors) == 0  # mesh gone
+    assert len(plotter.renderer.lights) == 3  # lights stay
+
+
+def test_busy_cache_falls_back_to_a_private_plotter(cone_video):
+    before = dict(render._SCENES)
+    with render._SCENES_LOCK:  # as if another thread were rendering with the cached plotters
+        video, _ = render_orbit(upright_cone(), n_frames=3, resolution=RES)
+    np.testing.assert_array_equal(video, cone_video[0])
+    assert render._SCENES == before
+
+
+def test_release_plotters_closes_the_cached_ones():
+    render_orbit(upright_cone(), n_frames=2, resolution=20)
+    plotters = [scene.plotter for scene in render._SCENES.values()]
+    assert release_plotters() == len(plotters) >= 1
+    assert not render._SCENES and all(p.render_window is None for p in plotters)
+    video, _ = render_orbit(upright_cone(), n_frames=2, resolution=20)  # made again on demand
+    assert video.shape == (2, 20, 20)
+
+
+def test_plotter_cache_is_bounded():
+    release_plotters()
+    for res in range(16, 16 + render.MAX_CACHED_PLOTTERS + 2):
+        render_orbit(upright_cone(), n_frames=2, resolution=res)
+    assert len(render._SCENES) == render.MAX_CACHED_PLOTTERS
+    assert [s.resolution for s in render._SCENES.values()][-1] == res  # most recent kept
+
+
+def test_anti_aliasing_modes():
+    assert ANTI_ALIASING == ("ssaa", "msaa", "supersample", "none")
+    cone = upright_cone()
+    videos = {aa: render_orbit(cone, n_frames=3, resolution=RES, anti_aliasing=aa)[0]
+              for aa in ANTI_ALIASING}
+    np.testing.assert_array_equal(render_orbit(cone, n_frames=3, resolution=RES,
+                                               anti_aliasing=False)[0], videos["msaa"])
+    for aa, video in videos.items():
+        assert video.shape == (3, RES, RES) and video.dtype == np.float32, aa
+        np.testing.assert_array_equal(video * 255, np.rint(video * 255))  # 8-bit levels
+        assert np.all(video[:, 0, 0] == 1.0), aa  # white background
+        # the same silhouette up to the edge pixels that anti-aliasing greys
+        assert np.mean((video < 0.9) != (videos["ssaa"] < 0.9)) < 0.03, aa
+    # without anti-aliasing every edge pixel is either object or background: fewer greys
+    def n_levels(v):
+        return len(np.unique(v))
+    assert n_levels(videos["none"]) < n_levels(videos["supersample"])
+    with pytest.raises(ValueError, match="anti_aliasing"):
+        render_orbit(cone, n_frames=3, resolution=RES, anti_aliasing="fxaa")
