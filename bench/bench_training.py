@@ -117,9 +117,11 @@ def main() -> str:
              f"torch threads {threads}.", ""]
     lines.append(f"- **tiny training step** (batch 16, 100 x 64 x 64, AdamW): "
                  f"{spread(rate)} per step = **{16 / rate['median']:.0f} samples/s**.")
-    lines += ["", "Faster CPU training: the same step with each of `fit`'s speed options "
-              "(`torch.compile` is not among them: see the note below the table).", "",
-              *speed_table(threads), ""]
+    lines += ["", "Faster CPU training: the same step with each of `fit`'s speed options.",
+              "", *speed_table(threads), "",
+              "`torch.compile` is not among them: compiling the tiny model's training step "
+              "had not finished after 25 minutes on these 2 cores (measured while other jobs "
+              "ran), which no gain on a 10-minute recipe could repay.", ""]
     paper = paper_forward(threads)
     if isinstance(paper, str):
         lines.append(f"- **paper preset forward** (1 x 100 x 256 x 256): {paper}.")
