@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from e2vlib import paper
+from e2vlib.experiments import _commit
 from e2vlib.files import atomic_path
 
 METHODS = ("visual_hull", "events_carving", "learned", "mean_shape")
@@ -34,12 +35,6 @@ QUESTION = ("The paper compares E2V with image-based methods only across papers 
             "With known camera poses and no learning, how far do silhouettes (a visual hull of "
             "the grey video) and events alone (carving from event outlines) get on the same "
             "test objects, next to the learned model and the mean shape?")
-
-
-def _commit() -> str:
-    from e2vlib.experiments import _commit as commit
-
-    return commit()
 
 
 def _object_record(item: dict, config, data: Path, events_root: Path, learned: np.ndarray,
@@ -131,10 +126,11 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
         train = preload(E2VDataset(data, "train"))
         mean_shape = train.voxels.float().mean(0).numpy()
     rows = {r["id"]: r for r in read_manifest(data)}
+    commit = _commit()  # one `git` call per study, not per object
     for k, i in enumerate(tqdm(todo, desc="geometry", unit="object", disable=not progress)):
         record = _object_record(rows[test.ids[i]], config, data, events, learned[k],
                                 mean_shape, n_points)
-        results["runs"].append({**record, "commit": _commit()})
+        results["runs"].append({**record, "commit": commit})
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp:
             tmp.write_text(json.dumps(results, indent=1) + "\n")
