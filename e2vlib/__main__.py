@@ -199,7 +199,8 @@ def _build_config(args: argparse.Namespace):
     try:  # validates every setting; nothing is written before this
         return BuildConfig(categories=categories, oversample=args.oversample,
                            raw_events_per_category=args.raw_events_per_category,
-                           grey_video=args.grey_video, **settings)
+                           grey_video=args.grey_video, noise=args.noise,
+                           splits=tuple(args.splits), **settings)
     except ValueError as err:
         raise UsageError(f"invalid dataset settings: {err}") from None
 
@@ -549,6 +550,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grey-video", action="store_true",
                    help="also store each sample's grey video at the event frames' times "
                    "(OUT/grey/<id>.npz, uint8 frames of --frame-size px)")
+    p.add_argument("--noise", choices=("clean", "low", "medium", "high"), default="clean",
+                   help="sensor noise of the simulated events (e2vlib.simulate.NOISE_LEVELS; "
+                   "default clean, as data_small)")
+    p.add_argument("--splits", nargs="+", choices=("train", "val", "test"),
+                   default=["train", "val", "test"],
+                   help="build only these splits (same objects and splits as the full build)")
     p.add_argument("--workers", type=positive, default=1, help="parallel processes (default 1)")
     p.add_argument("--shard", default="0/1", help="build only shard i of n, e.g. 2/8 "
                    "(join shard folders with merge-data)")

@@ -65,8 +65,12 @@ class BuildConfig:
     none); ``n_frames`` event frames of ``dt_us`` microseconds, grouped by ``windows``
     (``"fixed"`` clock windows or the paper's Eq. 5 ``"paper"``, see
     :func:`e2vlib.frames.accumulate`); ``grey_video``: also store every sample's grey
-    video at the event frames' times (:func:`grey_frame_indices`), in ROOT/grey/. It is
-    written to config.json only when true, so older configs read as False.
+    video at the event frames' times (:func:`grey_frame_indices`), in ROOT/grey/;
+    ``noise``: the simulator's sensor noise, a key of
+    :data:`e2vlib.simulate.NOISE_LEVELS` (``"clean"``: none, what data_small uses);
+    ``splits``: build only these splits (the plan, and so every sample's split and seed, is
+    the full build's). These three are written to config.json only when they differ from
+    their defaults, so older configs keep their exact form.
 
     Examples
     --------
@@ -89,9 +93,14 @@ class BuildConfig:
     dt_us: int = paper.DT_US
     windows: str = paper.FRAME_WINDOWS
     grey_video: bool = False
+    noise: str = "clean"
+    splits: tuple[str, ...] = SPLITS
 
     def __post_init__(self):
+        from e2vlib.simulate import NOISE_LEVELS
+
         object.__setattr__(self, "categories", tuple(self.categories))
+        object.__setattr__(self, "splits", tuple(self.splits))
         problems = []
         unknown = [c for c in self.categories if c not in paper.CATEGORIES]
         if unknown or not self.categories:
@@ -116,6 +125,13 @@ class BuildConfig:
             problems.append(f"windows must be one of {WINDOWS}, got {self.windows!r}")
         if not isinstance(self.grey_video, (bool, np.bool_)):
             problems.append(f"grey_video must be True or False, got {self.grey_video!r}")
+        if self.noise not in NOISE_LEVELS:
+            problems.append(f"noise must be one of {', '.join(NOISE_LEVELS)}, got "
+                            f"{self.noise!r}")
+        if not self.splits or any(x not in SPLITS for x in self.splits) or len(
+                set(self.splits)) != len(self.splits):
+            problems.append(f"splits must be some of {', '.join(SPLITS)} (each once), got "
+                            f"{list(self.splits)}")
         if not problems and self.resolution % self.frame_size:
             problems.append(f"frame_size {self.frame_size} must divide resolution "
                             f"{self.resolution}")
@@ -128,14 +144,21 @@ class BuildConfig:
                                required_oversample(paper.N_VIDEO_FRAMES, self.resolution))
 
     def to_dict(self) -> dict:
-        """A JSON-ready dict of every field (categories as a list); ``grey_video`` only
-        when true, so configs without it keep their exact old form."""
+        """A JSON-ready dict of every field (categories as a list); ``grey_video``,
+        ``noise`` and ``splits`` only when not their defaults, so configs without them keep
+        their exact old form."""
         d = asdict(self)
         d["categories"] = list(self.categories)
         if not self.grey_video:
             del d["grey_video"]
         else:
             d["grey_video"] = True
+        if self.noise == "clean":
+            del d["noise"]
+        if tuple(self.splits) == SPLITS:
+            del d["splits"]
+        else:
+            d["splits"] = list(self.splits)
         return d
 
     @classmethod
@@ -392,7 +415,7 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     """
     from e2vlib.render import render_orbit
     from e2vlib.shapes import normalize_mesh
-    from e2vlib.simulate import simulate_events
+    from e2vlib.simulate import NOISE_LEVELS, simulate_events
     from e2vlib.voxels import voxelize
 
     mesh = normalize_mesh(mesh)
@@ -400,7 +423,8 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     video, t_us = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
                                resolution=config.resolution, oversample=config.oversample)
     events = simulate_events(video, t_us, contrast_pos=config.contrast,
-                             contrast_neg=config.contrast, seed=seed)
+                             contrast_neg=config.contrast, seed=seed,
+                             **NOISE_LEVELS[config.noise])
     sensor_size = (config.resolution, config.resolution)
     frames = events_to_frames(events, sensor_size, config.frame_size, n_frames=config.n_frames,
                               dt_us=config.dt_us, windows=config.windows)
@@ -511,7 +535,7 @@ def build_dataset(
         marker.parent.mkdir(exist_ok=True)
         with atomic_path(marker) as tmp:
             tmp.write_text(json.dumps({"shard": f"{index}/{count}"}) + "\n")
-    todo = [s for k, s in enumerate(specs) if k % count == index
+    todo = [s for k, s in enumerate(specs) if k % count == index and s.split in config.splits
             and not _sample_done(root, s.id, config)]
     jobs = [(config, s, str(root), s.id in keep) for s in todo]
     bar = tqdm(total=len(jobs), desc=f"building {root.name}", unit="sample",
@@ -641,6 +665,10 @@ def make_data_command(config: BuildConfig, out: str | os.PathLike,
               "--windows", config.windows]
     if config.grey_video:
         parts.append("--grey-video")
+    if config.noise != "clean":
+        parts += ["--noise", config.noise]
+    if tuple(config.splits) != SPLITS:
+        parts += ["--splits", *config.splits]
     if shard is not None:
         parts += ["--shard", shard]
     return " ".join(parts)

@@ -38,8 +38,33 @@ EVENTS_COMMAND = ("python -m e2vlib make-data --out cache/events_small --preset 
 """The command that builds :data:`EVENTS_CACHE` (same objects and splits as data_small, with
 the raw events and the grey video of every sample; about 6 min on 2 cores)."""
 
-SAME_OBJECTS_IGNORED = ("raw_events_per_category", "grey_video")
-"""Build settings that store more per sample but do not change its events or frames."""
+STORAGE_SETTINGS = ("raw_events_per_category", "grey_video", "splits")
+"""Build settings that change what a folder stores, not the events or frames of a sample."""
+
+NOISE_CACHE = "cache/noise_{level}"
+"""Where the noise study finds data_small's objects simulated with sensor noise ``level``."""
+
+NOISE_COMMANDS = {
+    "medium": ("python -m e2vlib make-data --out cache/noise_medium --preset small "
+               "--raw-events-per-category 64 --noise medium --workers 2"),
+    **{level: (f"python -m e2vlib make-data --out cache/noise_{level} --preset small "
+               f"--raw-events-per-category 64 --noise {level} --splits test --workers 2")
+       for level in ("low", "high")},
+}
+"""The commands that build :data:`NOISE_CACHE` per level (``medium``: every split, to train
+on; the others: the test split only; about 6 and 1 min on 2 cores)."""
+
+EXTRA_CACHE = "cache/extra_small"
+EXTRA_COMMAND = ("python -m e2vlib make-data --out cache/extra_small --preset small --seed 1 "
+                 "--per-category 156 --workers 2")
+"""More objects of data_small's kind (another seed, so other shapes): every split of it is
+extra training data for the data_scale study, up to 4 x data_small's 52 per category."""
+
+GREY_INPUTS: dict[str, str] = {
+    "grey_video": "the rendered grey frames of the same orbit at the event frames' times",
+    "grey_single": "one grey view (the orbit's first frame), for a 2D encoder",
+}
+"""Inputs of the input study that are not events (read from the cache's grey videos)."""
 
 BASE: dict = {
     "data": "data_small",
@@ -113,8 +138,68 @@ STUDIES: dict[str, Study] = {
         "which weigh the rare occupied voxels more, give better grids?",
         {"bce": {"loss": "bce"}, "focal": {"loss": "focal"}, "bce_dice": {"loss": "bce_dice"}},
     ),
+    "input": Study(
+        "input",
+        "The paper compares E2V only across papers with image methods that see grey or RGB "
+        "frames: on the same objects, splits and budget, what do events buy over the grey "
+        "video of the same orbit, and over a single grey view?",
+        {"events": {},
+         "grey_video": {"representation": "grey_video"},
+         "grey_single": {"representation": "grey_single", "preset": "tiny2d", "n_frames": 1}},
+    ),
+    "noise": Study(
+        "noise",
+        "The paper trains and tests on noise-free simulated events; a real sensor adds "
+        "threshold mismatch, shot noise, leak events and a refractory period. How much does "
+        "noise at test time cost a clean-trained model, and does training with noise help?",
+        {"train_clean": {}, "train_medium": {"noise": "medium"}},
+        base={"noise": "clean", "noise_events": NOISE_CACHE,
+              "test_noise": ["clean", "low", "medium", "high"]},
+    ),
+    "data_scale": Study(
+        "data_scale",
+        "The paper expects more data to close its gap to image methods: at a fixed number of "
+        "training steps, how does test IoU grow with the number of training samples?",
+        {f"{scale:g}x": {"train_scale": scale} for scale in (0.25, 0.5, 1, 2, 4)},
+        base={"train_scale": 1, "extra": EXTRA_CACHE},
+    ),
 }
-"""The studies of issue 12, by name."""
+"""The studies of issues 12 and 13, by name."""
+
+NEUTRAL: dict[str, tuple[str, ...]] = {"train_scale": ("train_scale", "extra")}
+"""Protocol keys that change nothing at their base value (``train_scale`` 1 is data_small's
+own training set): :func:`canonical_protocol` drops them (and the keys that go with them)."""
+
+
+def canonical_protocol(protocol: dict) -> dict:
+    """``protocol`` without the keys that change nothing at their value (:data:`NEUTRAL`),
+    so ``data_scale``'s ``1x`` is the same run as ``representation``'s ``binary``.
+
+    Examples
+    --------
+    >>> canonical_protocol({"epochs": 12, "train_scale": 1, "extra": "cache/extra_small"})
+    {'epochs': 12}
+    >>> canonical_protocol({"epochs": 12, "train_scale": 2, "extra": "x"})["train_scale"]
+    2
+    """
+    out = dict(protocol)
+    if out.get("train_scale", 1) == 1:
+        for key in NEUTRAL["train_scale"]:
+            out.pop(key, None)
+    return out
+
+
+def epochs_of(protocol: dict) -> int:
+    """Epochs of a run: ``epochs`` over data_small's training set, scaled by ``1 /
+    train_scale`` so that every size of the data_scale study takes the same number of
+    steps (within one batch per epoch).
+
+    Examples
+    --------
+    >>> [epochs_of({"epochs": 12, "train_scale": s}) for s in (0.25, 1, 4)]
+    [48, 12, 3]
+    """
+    return max(1, round(protocol["epochs"] / protocol.get("train_scale", 1)))
 
 
 # ----------------------------------------------------------------------------- data
@@ -124,39 +209,70 @@ def _needs_events(protocol: dict, stored: dict) -> bool:
     """True unless the dataset's stored frames (settings ``stored``, a dataset config) are the
     protocol's input, possibly after max-pooling to a smaller ``frame_size``."""
     return not (protocol["representation"] == "binary"
+                and protocol.get("noise", "clean") == stored.get("noise", "clean")
                 and protocol["n_frames"] == stored["n_frames"]
                 and protocol["dt_us"] == stored["dt_us"]
                 and stored["windows"] == "fixed"
                 and stored["frame_size"] % protocol["frame_size"] == 0)
 
 
-def _check_events_folder(protocol: dict) -> Path:
+def events_root(protocol: dict) -> Path:
+    """The folder holding the raw events (and grey videos) the protocol's inputs come from:
+    ``protocol["events"]`` for clean events, ``noise_events`` with its level otherwise."""
+    level = protocol.get("noise", "clean")
+    if level == "clean":
+        return Path(protocol["events"])
+    return Path(protocol["noise_events"].format(level=level))
+
+
+def _check_events_folder(protocol: dict, split: str) -> Path:
     from e2vlib.data import BuildConfig
 
-    events, data = Path(protocol["events"]), Path(protocol["data"])
+    events, data = events_root(protocol), Path(protocol["data"])
+    level = protocol.get("noise", "clean")
+    command = EVENTS_COMMAND if level == "clean" else NOISE_COMMANDS.get(
+        level, f"python -m e2vlib make-data --out {events} --preset small "
+               f"--raw-events-per-category 64 --noise {level}")
     if not (events / "config.json").exists():
         raise FileNotFoundError(
             f"this config needs the raw events of every sample, in {events}; build them "
-            f"once with `{EVENTS_COMMAND}` (about 6 min on 2 cores)")
+            f"once with `{command}`")
     mine = BuildConfig.from_dict(json.loads((events / "config.json").read_text())).to_dict()
     theirs = BuildConfig.from_dict(json.loads((data / "config.json").read_text())).to_dict()
-    for key in SAME_OBJECTS_IGNORED:
+    built_splits = mine.get("splits", ["train", "val", "test"])
+    if mine.get("noise", "clean") != level:
+        raise ValueError(f"{events} holds events with noise {mine.get('noise', 'clean')!r}, "
+                         f"not {level!r}; rebuild it with `{command}`")
+    if split not in built_splits:
+        raise ValueError(f"{events} holds only the splits {built_splits}, not {split!r}; "
+                         f"build it with `{command}`")
+    for key in (*STORAGE_SETTINGS, "noise"):
         mine.pop(key, None)
         theirs.pop(key, None)
     if mine != theirs:
         raise ValueError(f"{events} was built with other settings than {data} "
-                         f"({mine} vs {theirs}); rebuild it with `{EVENTS_COMMAND}`")
+                         f"({mine} vs {theirs}); rebuild it with `{command}`")
     return events
 
 
-def _first_per_category(categories: Sequence[str], per_category: int | None) -> list[int]:
-    """Indices of the first ``per_category`` items of each category (all when None)."""
+def _first_per_category(categories: Sequence[str], per_category: int | dict | None) -> list[int]:
+    """Indices of the first ``per_category`` items of each category (all when None; a dict
+    gives each category its own count).
+
+    Examples
+    --------
+    >>> _first_per_category(["a", "b", "a", "a", "b"], 2)
+    [0, 1, 2, 4]
+    >>> _first_per_category(["a", "b", "a", "a", "b"], {"a": 1, "b": 0})
+    [0]
+    """
     if per_category is None:
         return list(range(len(categories)))
     seen: dict[str, int] = {}
     keep = []
     for i, category in enumerate(categories):
-        if seen.get(category, 0) < per_category:
+        limit = per_category.get(category, 0) if isinstance(per_category, dict) else per_category
+        if seen.get(category, 0) < limit:
             keep.append(i)
             seen[category] = seen.get(category, 0) + 1
     return keep
@@ -168,7 +284,9 @@ def input_config(dataset_config: dict, protocol: dict) -> dict:
     return {**dataset_config, "n_frames": protocol["n_frames"], "dt_us": protocol["dt_us"],
             "frame_size": protocol["frame_size"],
             "windows": "paper" if protocol["representation"] == "binary_paper" else "fixed",
-            "representation": protocol["representation"]}
+            "representation": protocol["representation"],
+            **({"noise": protocol["noise"]} if protocol.get("noise", "clean") != "clean"
+               else {})}
 
 
 _MEMORY: dict[str, object] = {}
@@ -177,60 +295,154 @@ _MEMORY: dict[str, object] = {}
 def _input_key(protocol: dict, split: str) -> str:
     keys = ("representation", "n_frames", "dt_us", "frame_size")
     text = json.dumps({k: protocol[k] for k in keys} | {
-        "split": split, "data": protocol["data"], "per_category": protocol.get("per_category")})
+        "split": split, "data": protocol["data"], "per_category": protocol.get("per_category"),
+        "noise": protocol.get("noise", "clean"), "events": str(events_root(protocol)),
+        "train_scale": protocol.get("train_scale", 1) if split == "train" else 1,
+        "extra": protocol.get("extra")})
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def load_split(protocol: dict, split: str, progress: bool = False):
-    """The ``split`` of the protocol's data as a :class:`~e2vlib.train.TensorSet` whose
-    frames are the protocol's representation, ``(N, D, S, S)`` or ``(N, C, D, S, S)``.
+def grey_input(grey: np.ndarray, representation: str, frame_size: int) -> np.ndarray:
+    """The model input made from a stored grey video ``(n_frames, S, S)`` uint8: grey levels
+    in [0, 1] as float16, block-averaged to ``frame_size``; ``"grey_single"`` keeps only the
+    first frame, ``(1, frame_size, frame_size)``.
 
-    Stored binary frames are used directly (max-pooled to a smaller ``frame_size``);
-    every other input is computed from the raw events in ``protocol["events"]`` and kept in
-    memory for the next run of the same process.
+    Examples
+    --------
+    >>> grey = np.arange(2 * 4 * 4, dtype=np.uint8).reshape(2, 4, 4) * 5
+    >>> x = grey_input(grey, "grey_single", 2)   # block (0, 0): (0 + 5 + 20 + 25) / 4 / 255
+    >>> x.shape, x.dtype, round(float(x[0, 0, 0]), 3)
+    ((1, 2, 2), dtype('float16'), 0.049)
     """
+    from e2vlib.frames import downsample
+
+    if representation not in GREY_INPUTS:
+        raise ValueError(f"unknown grey input {representation!r}; choose one of "
+                         f"{', '.join(GREY_INPUTS)}")
+    frames = np.asarray(grey)[:1] if representation == "grey_single" else np.asarray(grey)
+    factor = frames.shape[-1] // frame_size
+    if factor * frame_size != frames.shape[-1]:
+        raise ValueError(f"frame_size {frame_size} must divide the grey video's "
+                         f"{frames.shape[-1]} px")
+    means = downsample(frames.astype(np.float32), factor, "sum") / (factor * factor * 255.0)
+    return means.astype(np.float16)
+
+
+def _tensors(protocol: dict, root: str | os.PathLike, split: str,
+             per_category: int | dict | None, progress: bool):
+    """One split of the dataset at ``root`` as the protocol's inputs (see load_split)."""
     import torch
 
     from e2vlib.data import E2VDataset
     from e2vlib.frames import downsample
     from e2vlib.train import TensorSet, preload
 
-    key = _input_key(protocol, split)
-    if key in _MEMORY:
-        return _MEMORY[key]
-    dataset = E2VDataset(protocol["data"], split)
-    keep = _first_per_category(dataset.categories, protocol.get("per_category"))
+    dataset = E2VDataset(root, split)
+    keep = _first_per_category(dataset.categories, per_category)
     if not _needs_events(protocol, dataset.config):
         tensors = preload(dataset, progress=progress).subset(keep)
         factor = dataset.config["frame_size"] // protocol["frame_size"]
         frames = tensors.frames
         if factor > 1:
             frames = torch.from_numpy(downsample(frames.numpy(), factor))
-        tensors = TensorSet(frames, tensors.voxels, tensors.categories, tensors.ids,
-                            input_config(dataset.config, protocol))
+        return TensorSet(frames, tensors.voxels, tensors.categories, tensors.ids,
+                         input_config(dataset.config, protocol))
+    from tqdm.auto import tqdm
+
+    from e2vlib.data import load_grey_video
+    from e2vlib.inputs import events_to_input
+    from e2vlib.io import load_events
+
+    source = _check_events_folder({**protocol, "data": str(root)}, split)
+    representation = protocol["representation"]
+    frames, voxels = [], []
+    for index in tqdm(keep, desc=f"{representation} {split}", disable=not progress,
+                      leave=False):
+        sample_id = dataset.ids[index]
+        if representation in GREY_INPUTS:
+            x = grey_input(load_grey_video(source, sample_id), representation,
+                           protocol["frame_size"])
+        else:
+            events, sensor = load_events(source / "events" / f"{sample_id}.npz")
+            x = events_to_input(events, sensor, representation, protocol["frame_size"],
+                                protocol["n_frames"], protocol["dt_us"])
+        frames.append(torch.from_numpy(x if x.dtype in (np.uint8, np.float16)
+                                       else x.astype(np.float16)))
+        voxels.append(torch.from_numpy(dataset.arrays(index)[1]))
+    return TensorSet(torch.stack(frames), torch.stack(voxels),
+                     [dataset.categories[i] for i in keep],
+                     [dataset.ids[i] for i in keep], input_config(dataset.config, protocol))
+
+
+def train_counts(protocol: dict) -> dict[str, int]:
+    """Training samples per category of a protocol: data_small's (the first
+    ``per_category`` in quick mode) times ``train_scale``, rounded."""
+    from e2vlib.data import E2VDataset
+
+    base = E2VDataset(protocol["data"], "train").categories
+    counts: dict[str, int] = {}
+    for i in _first_per_category(base, protocol.get("per_category")):
+        counts[base[i]] = counts.get(base[i], 0) + 1
+    scale = protocol.get("train_scale", 1)
+    return {c: int(round(n * scale)) for c, n in counts.items()}
+
+
+def load_split(protocol: dict, split: str, progress: bool = False):
+    """The ``split`` of the protocol's data as a :class:`~e2vlib.train.TensorSet` whose
+    frames are the protocol's input, ``(N, D, S, S)`` or ``(N, C, D, S, S)``.
+
+    Stored binary frames are used directly (max-pooled to a smaller ``frame_size``);
+    every other input is computed from the raw events (or grey videos) in
+    :func:`events_root` and kept in memory for the next run of the same process. With
+    ``train_scale`` s, the training split holds s x data_small's samples per category: its
+    first ones for s <= 1, all of them plus objects of ``protocol["extra"]`` (every split)
+    for s > 1.
+    """
+    import torch
+
+    from e2vlib.train import TensorSet
+
+    key = _input_key(protocol, split)
+    if key in _MEMORY:
+        return _MEMORY[key]
+    scale = protocol.get("train_scale", 1)
+    if split != "train" or scale == 1:
+        tensors = _tensors(protocol, protocol["data"], split, protocol.get("per_category"),
+                           progress)
     else:
-        from tqdm.auto import tqdm
-
-        from e2vlib.inputs import events_to_input
-        from e2vlib.io import load_events
-
-        events_root = _check_events_folder(protocol)
-        frames, voxels = [], []
-        for index in tqdm(keep, desc=f"{protocol['representation']} {split}",
-                          disable=not progress, leave=False):
-            sample_id = dataset.ids[index]
-            events, sensor = load_events(events_root / "events" / f"{sample_id}.npz")
-            x = events_to_input(events, sensor, protocol["representation"],
-                                protocol["frame_size"], protocol["n_frames"], protocol["dt_us"])
-            frames.append(torch.from_numpy(x if x.dtype == np.uint8 else x.astype(np.float16)))
-            voxels.append(torch.from_numpy(dataset.arrays(index)[1]))
-        tensors = TensorSet(torch.stack(frames), torch.stack(voxels),
-                            [dataset.categories[i] for i in keep],
-                            [dataset.ids[i] for i in keep], input_config(dataset.config, protocol))
+        wanted = train_counts(protocol)
+        parts = [_tensors(protocol, protocol["data"], "train", wanted, progress)]
+        have = {c: parts[0].categories.count(c) for c in wanted}
+        for extra_split in ("train", "val", "test"):
+            more = {c: wanted[c] - have[c] for c in wanted}
+            if not any(n > 0 for n in more.values()):
+                break
+            parts.append(_tensors(protocol, _extra_root(protocol), extra_split, more,
+                                  progress))
+            for c in parts[-1].categories:
+                have[c] += 1
+        short = {c: wanted[c] - have[c] for c in wanted if have[c] < wanted[c]}
+        if short:
+            raise ValueError(f"{protocol['extra']} holds too few objects for train_scale "
+                             f"{scale} (missing per category: {short}); build more with "
+                             f"`{EXTRA_COMMAND}`")
+        extra_name = Path(protocol["extra"]).name  # ids restart in every build: name them
+        ids = parts[0].ids + [f"{extra_name}/{i}" for t in parts[1:] for i in t.ids]
+        tensors = TensorSet(torch.cat([t.frames for t in parts]),
+                            torch.cat([t.voxels for t in parts]),
+                            [c for t in parts for c in t.categories], ids, parts[0].config)
     if len(_MEMORY) >= 3:  # keep one protocol's train/val/test, not every representation's
         _MEMORY.clear()
     _MEMORY[key] = tensors
     return tensors
+
+
+def _extra_root(protocol: dict) -> Path:
+    root = Path(protocol["extra"])
+    if not (root / "manifest.csv").exists():
+        raise FileNotFoundError(f"train_scale {protocol['train_scale']} needs more objects, "
+                                f"in {root}; build them once with `{EXTRA_COMMAND}`")
+    return root
 
 
 # ----------------------------------------------------------------------------- one run
@@ -274,20 +486,21 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
     from e2vlib.metrics import iou
     from e2vlib.metrics import summarize as summarize_scores
     from e2vlib.model import build_e2v, load_checkpoint
-    from e2vlib.train import fit, predict, resolve_device, score_predictions
+    from e2vlib.train import fit, get_recipe, predict, resolve_device, score_predictions
 
     torch.set_num_threads(int(protocol["threads"]))
     train = load_split(protocol, "train", progress)
     val = load_split(protocol, "val", progress)
     test = load_split(protocol, "test", progress)
-    channels = input_channels(protocol["representation"])
+    representation = protocol["representation"]
+    channels = 1 if representation in GREY_INPUTS else input_channels(representation)
     shape = tuple(train.frames.shape[-3:])
     overrides = {"in_channels": channels} if channels > 1 else {}
     model = build_e2v(protocol["preset"], seed=seed, input_shape=shape, **overrides)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         started = time.perf_counter()
         history = fit(model, train, val, tmp, recipe=protocol["recipe"],
-                      epochs=protocol["epochs"], device=device, seed=seed,
+                      epochs=epochs_of(protocol), device=device, seed=seed,
                       loss=protocol["loss"], progress=progress)
         train_seconds = time.perf_counter() - started
         best = load_checkpoint(Path(tmp) / "best.pt")
@@ -303,12 +516,24 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
                                                      threshold=threshold)))
     metrics["per_category_iou@0.3"] = {c: float(v["iou@0.3"])
                                       for c, v in result["per_category"].items()}
+    for level in protocol.get("test_noise", ()):  # the same model on other noise levels
+        noisy = load_split({**protocol, "noise": level}, "test", progress)
+        probabilities = predict(best, noisy.frames, device)
+        scores = summarize_scores(score_predictions(probabilities, noisy.voxels),
+                                  noisy.categories)["overall"]
+        metrics.update({f"{level}:{k}": float(scores[k]) for k in ("iou@0.3", "fscore@1%")})
+        metrics[f"{level}:iou@val_threshold"] = float(np.mean(iou(
+            probabilities, noisy.voxels, threshold=threshold)))
     best_epoch = max(history, key=lambda h: h["val_iou"])
     from e2vlib.model import count_parameters
 
+    batch = get_recipe(protocol["recipe"]).batch_size
     return {
         "seed": int(seed),
         "metrics": metrics,
+        "n_train": len(train),
+        "epochs": epochs_of(protocol),
+        "steps": epochs_of(protocol) * -(-len(train) // batch),
         "best_epoch": int(best_epoch["epoch"]),
         "best_val_iou@0.3": float(best_epoch["val_iou"]),
         "n_parameters": count_parameters(best),
@@ -373,7 +598,8 @@ def find_same_run(out: Path, protocol: dict, seed: int, device: str,
             continue
         for run in results.get("runs", []):
             if (run.get("seed") == seed and run.get("device") == device
-                    and {**results["protocol"], **run.get("params", {})} == protocol):
+                    and canonical_protocol({**results["protocol"], **run.get("params", {})})
+                    == canonical_protocol(protocol)):
                 origin = run.get("reused_from", f"{results.get('study', other.stem)}/"
                                                 f"{run['config']}")
                 kept = {k: v for k, v in run.items() if k not in ("config", "params")}

@@ -4,16 +4,21 @@ import json
 
 import numpy as np
 import pytest
+import torch
 
-from e2vlib.data import BuildConfig, build_dataset
+from e2vlib.data import BuildConfig, E2VDataset, build_dataset
 from e2vlib.experiments import (
     STUDIES,
     best_threshold,
+    canonical_protocol,
     command_line,
     compare,
+    epochs_of,
+    grey_input,
     load_split,
     run_study,
     summarize,
+    train_counts,
 )
 
 RECORD_KEYS = {"config", "params", "seed", "metrics", "best_epoch", "train_seconds", "device",
@@ -25,9 +30,13 @@ def tiny_events_dataset(tmp_path_factory):
     """2 categories x 3 objects at 64 px with the raw events of every sample."""
     root = tmp_path_factory.mktemp("tiny_events")
     config = BuildConfig(categories=("chair", "table"), per_category=3, resolution=64,
-                         frame_size=32, oversample=2, raw_events_per_category=3)
+                         frame_size=32, oversample=2, raw_events_per_category=3,
+                         grey_video=True)
     build_dataset(root, config, progress=False)
     return root
+
+
+TINY = {"categories": ("chair", "table"), "resolution": 64, "frame_size": 32, "oversample": 2}
 
 
 def _overrides(root):
@@ -132,3 +141,124 @@ def test_a_run_with_the_same_full_protocol_is_reused_and_a_fresh_one_agrees(
     assert fresh_run["metrics"]["iou@0.3"] == pytest.approx(original["metrics"]["iou@0.3"],
                                                             abs=1e-6)
     assert json.loads(fresh.read_text())["command"].endswith("--quick --no-reuse")
+
+
+# --- issue 13: inputs that are not events, noisy events, more training data ----------------
+
+
+def test_grey_inputs_are_the_stored_grey_video_scaled_to_one(tiny_events_dataset):
+    from e2vlib.data import E2VDataset, load_grey_video
+
+    protocol = {**STUDIES["input"].protocol(quick=True), **_overrides(tiny_events_dataset)}
+    video = load_split({**protocol, **STUDIES["input"].configs["grey_video"]}, "test")
+    single = load_split({**protocol, **STUDIES["input"].configs["grey_single"]}, "test")
+    ids = E2VDataset(tiny_events_dataset, "test").ids
+    grey = load_grey_video(tiny_events_dataset, ids[0]).astype(np.float32)  # (100, 32, 32)
+    assert video.frames.shape == (2, 100, 32, 32) and video.frames.dtype == torch.float16
+    np.testing.assert_allclose(video.frames[0].float().numpy(), grey / 255, atol=1e-3)
+    assert single.frames.shape == (2, 1, 32, 32)
+    np.testing.assert_allclose(single.frames[0, 0].float().numpy(), grey[0] / 255, atol=1e-3)
+    # 2x2 block means at half the size
+    half = grey_input(grey.astype(np.uint8), "grey_video", 16)
+    expected = grey.reshape(100, 16, 2, 16, 2).mean(axis=(2, 4)) / 255
+    np.testing.assert_allclose(half.astype(np.float32), expected, atol=1e-3)
+    with pytest.raises(ValueError, match="must divide"):
+        grey_input(grey.astype(np.uint8), "grey_video", 5)
+
+
+def test_the_input_study_runs_a_grey_single_view_through_a_2d_encoder(tiny_events_dataset,
+                                                                     tmp_path):
+    path = run_study("input", ["grey_single"], seeds=[0], out=tmp_path, quick=True,
+                     progress=False, base_overrides=_overrides(tiny_events_dataset))
+    run = json.loads(path.read_text())["runs"][0]
+    assert run["params"] == {"representation": "grey_single", "preset": "tiny2d",
+                             "n_frames": 1}
+    assert 0.0 <= run["metrics"]["iou@0.3"] <= 1.0 and run["n_train"] == 2
+
+
+@pytest.fixture(scope="module")
+def noisy_test_split(tiny_events_dataset):
+    """The tiny dataset's test split simulated again with the ``high`` noise preset."""
+    root = tiny_events_dataset.parent / "noise_high"
+    config = BuildConfig(per_category=3, raw_events_per_category=3, noise="high",
+                         splits=("test",), **TINY)
+    build_dataset(root, config, progress=False)
+    return root
+
+
+def test_noisy_events_are_read_for_the_noisy_test_split_only(tiny_events_dataset,
+                                                             noisy_test_split):
+    from e2vlib.io import load_events
+
+    test_ids = E2VDataset(tiny_events_dataset, "test").ids
+    # the same objects and seeds as the clean build; only the test split is built
+    assert sorted(p.name for p in (noisy_test_split / "samples").iterdir()) == sorted(
+        f"{i}.npz" for i in test_ids)
+    protocol = {**STUDIES["noise"].protocol(quick=True), **_overrides(tiny_events_dataset),
+                "noise_events": str(tiny_events_dataset.parent / "noise_{level}")}
+    clean = load_split(protocol, "test")
+    noisy = load_split({**protocol, "noise": "high"}, "test")
+    assert clean.ids == noisy.ids
+    np.testing.assert_array_equal(clean.voxels.numpy(), noisy.voxels.numpy())
+    # 5 Hz of shot noise on 64 x 64 pixels over 0.5 s: about 10,000 more events per object
+    sample = clean.ids[0]
+    n_clean = len(load_events(tiny_events_dataset / "events" / f"{sample}.npz")[0])
+    n_noisy = len(load_events(noisy_test_split / "events" / f"{sample}.npz")[0])
+    assert n_noisy - n_clean > 5000
+    assert noisy.frames.float().mean() > clean.frames.float().mean()
+    with pytest.raises(ValueError, match="only the splits"):
+        load_split({**protocol, "noise": "high"}, "train")
+    with pytest.raises(FileNotFoundError, match="--noise low"):
+        load_split({**protocol, "noise": "low"}, "test")
+
+
+def test_the_noise_study_scores_one_model_at_every_test_noise_level(
+        tiny_events_dataset, noisy_test_split, tmp_path):
+    overrides = {**_overrides(tiny_events_dataset), "test_noise": ["clean", "high"],
+                 "noise_events": str(tiny_events_dataset.parent / "noise_{level}")}
+    path = run_study("noise", ["train_clean"], seeds=[0], out=tmp_path, quick=True,
+                     progress=False, base_overrides=overrides)
+    metrics = json.loads(path.read_text())["runs"][0]["metrics"]
+    assert metrics["clean:iou@0.3"] == pytest.approx(metrics["iou@0.3"], abs=1e-9)
+    assert {"high:iou@0.3", "high:fscore@1%", "high:iou@val_threshold"} <= set(metrics)
+    assert summarize(path, "high:iou@0.3")[0]["n"] == 1
+
+
+@pytest.fixture(scope="module")
+def extra_objects(tiny_events_dataset):
+    """Three more objects per category (another seed), as the data_scale study's extra data."""
+    root = tiny_events_dataset.parent / "extra"
+    build_dataset(root, BuildConfig(per_category=3, seed=1, **TINY), progress=False)
+    return root
+
+
+def test_train_scale_takes_the_first_objects_then_extra_ones_at_equal_steps(
+        tiny_events_dataset, extra_objects):
+    protocol = {**STUDIES["data_scale"].protocol(quick=True), **_overrides(tiny_events_dataset),
+                "extra": str(extra_objects)}
+    base = load_split(protocol, "train")
+    assert train_counts(protocol) == {"chair": 1, "table": 1}
+    bigger = load_split({**protocol, "train_scale": 4}, "train")
+    assert train_counts({**protocol, "train_scale": 4}) == {"chair": 4, "table": 4}
+    assert len(bigger) == 8 and bigger.ids[:2] == base.ids
+    assert len(set(bigger.ids)) == 8 and bigger.categories.count("chair") == 4
+    np.testing.assert_array_equal(bigger.frames[:2].numpy(), base.frames.numpy())
+    assert load_split(protocol, "test").ids == load_split({**protocol, "train_scale": 4},
+                                                          "test").ids
+    with pytest.raises(ValueError, match="too few objects"):
+        load_split({**protocol, "train_scale": 6}, "train")  # 1 + 3 extra < 6 per category
+    assert [epochs_of({"epochs": 12, "train_scale": s}) for s in (0.25, 0.5, 1, 2, 4)] == [
+        48, 24, 12, 6, 3]
+
+
+def test_data_scale_1x_is_the_base_run_and_is_reused(tiny_events_dataset, extra_objects,
+                                                     tmp_path):
+    overrides = _overrides(tiny_events_dataset)
+    run_study("representation", ["binary"], seeds=[0], out=tmp_path, quick=True,
+              progress=False, base_overrides=overrides)
+    path = run_study("data_scale", ["1x", "2x"], seeds=[0], out=tmp_path, quick=True,
+                     progress=False, base_overrides={**overrides, "extra": str(extra_objects)})
+    one, two = json.loads(path.read_text())["runs"]
+    assert one["reused_from"] == "representation/binary" and "reused_from" not in two
+    assert two["n_train"] == 4 and two["epochs"] == 1  # quick: 1 epoch / 2 rounds to 1
+    assert canonical_protocol({"a": 1, "train_scale": 1, "extra": "x"}) == {"a": 1}
