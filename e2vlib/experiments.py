@@ -387,6 +387,17 @@ def train_counts(protocol: dict) -> dict[str, int]:
     return {c: int(round(n * scale)) for c, n in counts.items()}
 
 
+def run_size(protocol: dict) -> dict:
+    """``{"n_train", "epochs", "steps"}`` of a run of ``protocol`` (what :func:`run_one`
+    records), from the training split's size per category."""
+    from e2vlib.train import get_recipe
+
+    n_train = sum(train_counts(protocol).values())
+    batch = get_recipe(protocol["recipe"]).batch_size
+    return {"n_train": n_train, "epochs": epochs_of(protocol),
+            "steps": epochs_of(protocol) * -(-n_train // batch)}
+
+
 def load_split(protocol: dict, split: str, progress: bool = False):
     """The ``split`` of the protocol's data as a :class:`~e2vlib.train.TensorSet` whose
     frames are the protocol's input, ``(N, D, S, S)`` or ``(N, C, D, S, S)``.
@@ -486,7 +497,7 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
     from e2vlib.metrics import iou
     from e2vlib.metrics import summarize as summarize_scores
     from e2vlib.model import build_e2v, load_checkpoint
-    from e2vlib.train import fit, get_recipe, predict, resolve_device, score_predictions
+    from e2vlib.train import fit, predict, resolve_device, score_predictions
 
     torch.set_num_threads(int(protocol["threads"]))
     train = load_split(protocol, "train", progress)
@@ -527,13 +538,10 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
     best_epoch = max(history, key=lambda h: h["val_iou"])
     from e2vlib.model import count_parameters
 
-    batch = get_recipe(protocol["recipe"]).batch_size
     return {
         "seed": int(seed),
         "metrics": metrics,
-        "n_train": len(train),
-        "epochs": epochs_of(protocol),
-        "steps": epochs_of(protocol) * -(-len(train) // batch),
+        **run_size(protocol),
         "best_epoch": int(best_epoch["epoch"]),
         "best_val_iou@0.3": float(best_epoch["val_iou"]),
         "n_parameters": count_parameters(best),
@@ -654,6 +662,8 @@ def run_study(study: str, configs: Sequence[str] | None = None,
         if record is None:
             record = run_one({**protocol, **params}, int(seed), device=device,
                              progress=progress)
+        else:  # records made before runs noted their size get it from the protocol
+            record = {**run_size({**protocol, **params}), **record}
         results["runs"].append({"config": name, "params": params, **record})
         _write(path, results)
         if progress:

@@ -260,5 +260,6 @@ def test_data_scale_1x_is_the_base_run_and_is_reused(tiny_events_dataset, extra_
                      progress=False, base_overrides={**overrides, "extra": str(extra_objects)})
     one, two = json.loads(path.read_text())["runs"]
     assert one["reused_from"] == "representation/binary" and "reused_from" not in two
+    assert one["n_train"] == 2 and one["steps"] == 1  # 2 objects, one batch of 16
     assert two["n_train"] == 4 and two["epochs"] == 1  # quick: 1 epoch / 2 rounds to 1
     assert canonical_protocol({"a": 1, "train_scale": 1, "extra": "x"}) == {"a": 1}
