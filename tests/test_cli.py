@@ -427,6 +427,8 @@ def test_make_data_command_spells_out_the_config_it_came_from():
     for config in (BuildConfig(categories=("table", "chair"), per_category=3, resolution=32,
                                frame_size=16, oversample=2, contrast=0.15, seed=4,
                                windows="paper", n_frames=50, dt_us=10_000, grey_video=True),
+                   BuildConfig(categories=("lamp",), per_category=3, noise="high",
+                               splits=("val", "test")),
                    BuildConfig.from_dict(json.loads((REPO / "data_small" / "config.json")
                                                     .read_text()))):
         command = make_data_command(config, "out_dir", "1/4").split()
@@ -438,12 +440,31 @@ def test_make_data_command_spells_out_the_config_it_came_from():
 @pytest.mark.parametrize("args, says", [
     (("--contrast", "0"), r"argument --contrast: must be a finite number > 0, got 0"),
     (("--grey-video", "yes"), r"unrecognized arguments: yes"),
+    (("--noise", "loud"), r"argument --noise: invalid choice: 'loud'"),
+    (("--splits", "holdout"), r"argument --splits: invalid choice: 'holdout'"),
+    (("--splits", "test", "test"), r"splits must be some of train, val, test \(each once\)"),
 ])
 def test_make_data_new_options_are_checked_before_writing(capsys, tmp_path, args, says):
     out = tmp_path / "data"
     code, _, err = run(capsys, *MAKE, *args, "--out", out)
     assert code == 2 and re.search(says, err), err
     assert not out.exists()
+
+
+def test_make_data_splits_builds_only_those_samples_of_the_full_plan(capsys, tmp_path):
+    from e2vlib.data import BuildConfig, plan_samples, read_manifest
+
+    out = tmp_path / "noisy"
+    code, _, _ = run(capsys, *MAKE, "--per-category", "3", "--noise", "low", "--splits", "test",
+                     "--out", out)  # 3 objects: one each for train, val and test
+    assert code == 0
+    stored = json.loads((out / "config.json").read_text())
+    assert stored["noise"] == "low" and stored["splits"] == ["test"]
+    planned = plan_samples(BuildConfig.from_dict(stored))
+    assert {r["id"] for r in read_manifest(out)} == {s.id for s in planned if s.split == "test"}
+    assert [s.split for s in planned].count("test") == 1 and len(planned) == 3
+    assert [p.name for p in (out / "samples").iterdir()] == [
+        f"{s.id}.npz" for s in planned if s.split == "test"]
 
 
 def test_merge_data_usage_errors(capsys, tmp_path):
