@@ -626,6 +626,7 @@ def run_study(study: str, configs: Sequence[str] | None = None,
     different protocols never mix. With ``reuse``, a (config, seed) whose full protocol was
     already run by another study in ``out`` (``100x5ms`` of ``time`` is ``binary`` of
     ``representation``) is copied from there (:func:`find_same_run`) instead of trained again.
+    The file's ``command`` is the latest invocation, ``commands`` every one that added runs.
     """
     from tqdm.auto import tqdm
 
@@ -647,6 +648,9 @@ def run_study(study: str, configs: Sequence[str] | None = None,
         raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
                          f"use another --out folder to run this one ({protocol})")
     results["command"] = command_line(study, configs, seeds, quick, reuse)
+    commands = results.setdefault("commands", [])  # every invocation that added runs, in order
+    if results["command"] not in commands:
+        commands.append(results["command"])
     done = {(r["config"], r["seed"]) for r in results["runs"]}
     todo = [(n, s) for n in names for s in seeds if (n, int(s)) not in done]
     bar = tqdm(todo, desc=f"{study} runs", unit="run", disable=not progress)

@@ -59,6 +59,7 @@ def test_a_study_records_one_run_per_config_and_seed_and_resumes(tiny_events_dat
     assert results["protocol"]["epochs"] == 1 and results["protocol"]["data"] == overrides["data"]
     assert results["command"] == ("python -m e2vlib experiment representation --configs binary "
                                   "polarity --seeds 0 --quick")
+    assert results["commands"] == [results["command"]]
     before = path.read_text()
     run_study("representation", ["binary", "polarity"], seeds=[0], out=tmp_path, quick=True,
               progress=False, base_overrides=overrides)  # everything recorded: nothing runs
