@@ -470,6 +470,26 @@ def _commit() -> str:
     return head + ("-dirty" if dirty else "")
 
 
+def cpu_name() -> str:
+    """The CPU's model name (``/proc/cpuinfo``, else :func:`platform.processor`).
+
+    Floating-point results of training depend on the CPU's vector kernels: the same
+    protocol and seed give the same run on one CPU model, bit for bit, but not across models
+    (measured: three seeds trained on an AMD EPYC and an Intel Xeon differed by 0.008-0.026
+    test IoU@0.3). Records carry it, and :func:`find_same_run` copies only runs of the same
+    CPU.
+    """
+    import platform
+
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
 def best_threshold(probabilities, voxels, thresholds: Iterable[float] = THRESHOLDS) -> float:
     """The threshold of ``thresholds`` with the highest mean IoU (ties: the lowest).
 
@@ -547,6 +567,7 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
         "n_parameters": count_parameters(best),
         "train_seconds": round(train_seconds, 1),
         "device": str(resolve_device(device)),
+        "cpu": cpu_name(),
         "torch": torch.__version__,
         "commit": _commit(),
     }
@@ -586,15 +607,18 @@ def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int]
 
 
 def find_same_run(out: Path, protocol: dict, seed: int, device: str,
-                  exclude: Path | None = None) -> dict | None:
+                  exclude: Path | None = None, cpu: str | None = None) -> dict | None:
     """A run recorded in another study file of ``out`` with exactly this full ``protocol``
-    (its study's protocol + its params), ``seed`` and ``device``, or None.
+    (its study's protocol + its params), ``seed``, ``device`` and CPU model (``cpu``,
+    default :func:`cpu_name`), or None.
 
-    Training on the CPU is deterministic for a protocol and seed (same threads), so such a
-    run is the run this one would be; the encoder study's ``resnet3d`` runs, made afresh
-    with ``--no-reuse``, check that against the representation study's ``binary`` runs.
-    The returned record names its origin in ``reused_from`` (``"study/config"``).
+    Training on one CPU model is deterministic for a protocol and seed (same threads), so
+    such a run is the run this one would be; the encoder study's ``resnet3d`` runs, made
+    afresh with ``--no-reuse``, check that against the representation study's ``binary``
+    runs. Records that do not name their CPU (made before records carried it) are never
+    copied. The returned record names its origin in ``reused_from`` (``"study/config"``).
     """
+    cpu = cpu_name() if cpu is None else cpu
     for other in sorted(Path(out).glob("*.json")):
         if exclude is not None and other.resolve() == exclude.resolve():
             continue
@@ -606,6 +630,7 @@ def find_same_run(out: Path, protocol: dict, seed: int, device: str,
             continue
         for run in results.get("runs", []):
             if (run.get("seed") == seed and run.get("device") == device
+                    and run.get("cpu") == cpu
                     and canonical_protocol({**results["protocol"], **run.get("params", {})})
                     == canonical_protocol(protocol)):
                 origin = run.get("reused_from", f"{results.get('study', other.stem)}/"

@@ -264,3 +264,17 @@ def test_data_scale_1x_is_the_base_run_and_is_reused(tiny_events_dataset, extra_
     assert one["n_train"] == 2 and one["steps"] == 1  # 2 objects, one batch of 16
     assert two["n_train"] == 4 and two["epochs"] == 1  # quick: 1 epoch / 2 rounds to 1
     assert canonical_protocol({"a": 1, "train_scale": 1, "extra": "x"}) == {"a": 1}
+
+
+def test_only_runs_of_the_same_cpu_model_are_copied(tmp_path):
+    from e2vlib.experiments import find_same_run
+
+    protocol = {"epochs": 12, "seed_free": True}
+    runs = [{"config": "a", "params": {}, "seed": 0, "device": "cpu", "metrics": {}, "cpu": c}
+            for c in ("AMD EPYC", None)]
+    (tmp_path / "other.json").write_text(json.dumps({"study": "other", "protocol": protocol,
+                                                     "runs": runs}))
+    found = find_same_run(tmp_path, protocol, 0, "cpu", cpu="AMD EPYC")
+    assert found["reused_from"] == "other/a" and found["cpu"] == "AMD EPYC"
+    assert find_same_run(tmp_path, protocol, 0, "cpu", cpu="Intel Xeon") is None
+    assert find_same_run(tmp_path, protocol, 1, "cpu", cpu="AMD EPYC") is None
