@@ -166,14 +166,17 @@ STUDIES: dict[str, Study] = {
 }
 """The studies of issues 12 and 13, by name."""
 
-NEUTRAL: dict[str, tuple[str, ...]] = {"train_scale": ("train_scale", "extra")}
-"""Protocol keys that change nothing at their base value (``train_scale`` 1 is data_small's
-own training set): :func:`canonical_protocol` drops them (and the keys that go with them)."""
+NEUTRAL: dict[str, tuple[str, ...]] = {"train_scale": ("train_scale", "extra"),
+                                       "noise": ("noise", "noise_events", "test_noise")}
+"""Protocol keys that change nothing about training at their base value (``train_scale`` 1
+is data_small's own training set, ``noise`` "clean" its own events; ``test_noise`` only adds
+test scores): :func:`canonical_protocol` drops them (and the keys that go with them)."""
 
 
 def canonical_protocol(protocol: dict) -> dict:
     """``protocol`` without the keys that change nothing at their value (:data:`NEUTRAL`),
-    so ``data_scale``'s ``1x`` is the same run as ``representation``'s ``binary``.
+    so ``data_scale``'s ``1x`` is the same training run as ``representation``'s ``binary``
+    or ``noise``'s ``train_clean`` (whose record only holds more test scores).
 
     Examples
     --------
@@ -181,10 +184,15 @@ def canonical_protocol(protocol: dict) -> dict:
     {'epochs': 12}
     >>> canonical_protocol({"epochs": 12, "train_scale": 2, "extra": "x"})["train_scale"]
     2
+    >>> canonical_protocol({"epochs": 12, "noise": "clean", "test_noise": ["high"]})
+    {'epochs': 12}
     """
     out = dict(protocol)
     if out.get("train_scale", 1) == 1:
         for key in NEUTRAL["train_scale"]:
+            out.pop(key, None)
+    if out.get("noise", "clean") == "clean":
+        for key in NEUTRAL["noise"]:
             out.pop(key, None)
     return out
 
