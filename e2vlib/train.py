@@ -561,8 +561,8 @@ def _check_gradients(model: nn.Module, epoch: int, step: int) -> None:
 
     Only bf16 training checks (one reduction per parameter and step): on some CPUs the
     bfloat16 kernels of oneDNN return non-finite convolution gradients where fp32 gives
-    finite ones (measured on an Intel Xeon with AMX: a conv3d weight gradient of the tiny
-    test model after 14 steps), and a NaN weight would otherwise only surface later, far
+    finite ones (measured on an Intel Xeon: a conv3d weight gradient of the tiny test model,
+    within its first 14 steps), and a NaN weight would otherwise only surface later, far
     from its cause.
     """
     for name, parameter in model.named_parameters():

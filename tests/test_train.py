@@ -409,7 +409,7 @@ def test_bf16_training_learns_and_keeps_float32_weights(tmp_path):
     try:
         history = fit(small_model(), toy_set(), toy_set(8, seed=1), tmp_path, epochs=4,
                       lr=1e-2, batch_size=8, precision="bf16", progress=False)
-    except FloatingPointError as err:  # measured on an Intel Xeon with AMX (oneDNN bf16)
+    except FloatingPointError as err:  # measured on an Intel Xeon (oneDNN's bf16 kernels)
         assert "train with precision='fp32'" in str(err)
         pytest.skip(f"this CPU's bfloat16 kernels give non-finite gradients: {err}")
     assert history[-1]["train_loss"] < 0.5 * history[0]["train_loss"]
