@@ -234,7 +234,7 @@ def events_root(protocol: dict) -> Path:
 
 
 def _check_events_folder(protocol: dict, split: str) -> Path:
-    from e2vlib.data import BuildConfig
+    from e2vlib.data import SPLITS, BuildConfig
 
     events, data = events_root(protocol), Path(protocol["data"])
     level = protocol.get("noise", "clean")
@@ -247,7 +247,7 @@ def _check_events_folder(protocol: dict, split: str) -> Path:
             f"once with `{command}`")
     mine = BuildConfig.from_dict(json.loads((events / "config.json").read_text())).to_dict()
     theirs = BuildConfig.from_dict(json.loads((data / "config.json").read_text())).to_dict()
-    built_splits = mine.get("splits", ["train", "val", "test"])
+    built_splits = mine.get("splits", list(SPLITS))
     if mine.get("noise", "clean") != level:
         raise ValueError(f"{events} holds events with noise {mine.get('noise', 'clean')!r}, "
                          f"not {level!r}; rebuild it with `{command}`")
@@ -298,6 +298,9 @@ def input_config(dataset_config: dict, protocol: dict) -> dict:
 
 
 _MEMORY: dict[str, object] = {}
+_MEMORY_SPLITS = 8
+"""Splits :func:`load_split` keeps in memory, oldest dropped first: a noise-study run's
+train, val and test plus its four noisy test sets, so the next seed reuses its train set."""
 
 
 def _input_key(protocol: dict, split: str) -> str:
@@ -450,8 +453,8 @@ def load_split(protocol: dict, split: str, progress: bool = False):
         tensors = TensorSet(torch.cat([t.frames for t in parts]),
                             torch.cat([t.voxels for t in parts]),
                             [c for t in parts for c in t.categories], ids, parts[0].config)
-    if len(_MEMORY) >= 3:  # keep one protocol's train/val/test, not every representation's
-        _MEMORY.clear()
+    while len(_MEMORY) >= _MEMORY_SPLITS:
+        del _MEMORY[next(iter(_MEMORY))]
     _MEMORY[key] = tensors
     return tensors
 
