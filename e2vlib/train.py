@@ -414,7 +414,8 @@ def fit(
         float32). Fast on CPUs with AVX-512 BF16 or AMX and on recent GPUs
         (:func:`bf16_is_fast`); elsewhere it is refused with a ValueError. Every step's
         gradients are checked: a NaN/inf one raises FloatingPointError naming the
-        parameter (some CPUs' bfloat16 kernels give them; then train in fp32).
+        parameter (oneDNN's bfloat16 kernels give them for a convolution whose input is
+        one voxel along every axis; then train in fp32 or on larger frames).
     channels_last
         Store the convolution weights channels-last (``torch.channels_last_3d`` for 3D,
         ``torch.channels_last`` for 2D kernels), which oneDNN runs faster on CPU. The
@@ -559,18 +560,21 @@ PRECISIONS = ("fp32", "bf16")
 def _check_gradients(model: nn.Module, epoch: int, step: int) -> None:
     """Raise FloatingPointError naming the first parameter whose gradient is NaN/inf.
 
-    Only bf16 training checks (one reduction per parameter and step): on some CPUs the
-    bfloat16 kernels of oneDNN return non-finite convolution gradients where fp32 gives
-    finite ones (measured on an Intel Xeon: a conv3d weight gradient of the tiny test model,
-    within its first 14 steps), and a NaN weight would otherwise only surface later, far
-    from its cause.
+    Only bf16 training checks (one reduction per parameter and step). oneDNN's bfloat16
+    kernels (torch 2.13 on an Intel Xeon, AMX or AVX-512 BF16) return garbage, often inf or NaN, for
+    the weight gradient of a 3x3x3 convolution whose input is a single voxel along every
+    axis (the taps that only see padding should get 0); with 2 or more voxels per axis
+    they agree with fp32. The tiny preset's deepest convolution sees 7 x 4 x 4 voxels, but
+    a model for small frames can end in such a layer, and a NaN weight would otherwise
+    only surface later, far from its cause.
     """
     for name, parameter in model.named_parameters():
         if parameter.grad is not None and not torch.isfinite(parameter.grad).all():
             raise FloatingPointError(
                 f"bf16 training gave a non-finite gradient for {name} (epoch {epoch + 1}, "
                 f"step {step + 1}); this device's bfloat16 kernels are not usable for this "
-                "model: train with precision='fp32'")
+                "model (a convolution whose input is 1 voxel along every axis gives such "
+                "gradients): train with precision='fp32' or on larger frames")
 
 
 

@@ -34,11 +34,11 @@ def small_model(seed=0, **overrides):
     return build_e2v("tiny", seed=seed, **(kw | overrides))
 
 
-def toy_set(n=24, seed=0) -> TensorSet:
+def toy_set(n=24, seed=0, shape=SHAPE) -> TensorSet:
     """A learnable toy task: dense frames -> a big cube, sparse frames -> a small cube."""
     rng = np.random.default_rng(seed)
     big = rng.random(n) < 0.5
-    frames = np.stack([(rng.random(SHAPE) < (0.6 if b else 0.05)) for b in big]).astype(np.uint8)
+    frames = np.stack([(rng.random(shape) < (0.6 if b else 0.05)) for b in big]).astype(np.uint8)
     voxels = np.zeros((n, 32, 32, 32), dtype=bool)
     voxels[big, 4:28, 4:28, 4:28] = True
     voxels[~big, 12:20, 12:20, 12:20] = True
@@ -404,14 +404,21 @@ def test_channels_last_keeps_the_values_and_trains_the_same(tmp_path, preset):
     assert loaded.input_shape == SHAPE
 
 
+# oneDNN's bfloat16 kernels return garbage (often inf/NaN) for the weight gradient of a
+# 3x3x3 convolution whose input is a single voxel along every axis: the taps that only
+# ever see padding should get 0 (measured on an Intel Xeon, torch 2.13, with AMX and with
+# ONEDNN_MAX_CPU_ISA=AVX512_CORE_BF16; at 2 or more voxels per axis the gradient agrees
+# with fp32 to 0.6 %). SHAPE's model ends in such
+# a layer, so the bf16 test uses a model whose deepest convolution sees 2 x 2 x 2 voxels
+# (16^3 frames, no stem pooling: 16 -> 8 -> 4 -> 2), as the tiny preset's sees 7 x 4 x 4.
+BF16_SHAPE = (16, 16, 16)
+
+
 @pytest.mark.skipif(not bf16_is_fast("cpu"), reason="this CPU has no native bfloat16")
 def test_bf16_training_learns_and_keeps_float32_weights(tmp_path):
-    try:
-        history = fit(small_model(), toy_set(), toy_set(8, seed=1), tmp_path, epochs=4,
-                      lr=1e-2, batch_size=8, precision="bf16", progress=False)
-    except FloatingPointError as err:  # measured on an Intel Xeon (oneDNN's bf16 kernels)
-        assert "train with precision='fp32'" in str(err)
-        pytest.skip(f"this CPU's bfloat16 kernels give non-finite gradients: {err}")
+    model = small_model(input_shape=BF16_SHAPE, stem_pool=False)
+    history = fit(model, toy_set(shape=BF16_SHAPE), toy_set(8, seed=1, shape=BF16_SHAPE),
+                  tmp_path, epochs=4, lr=1e-2, batch_size=8, precision="bf16", progress=False)
     assert history[-1]["train_loss"] < 0.5 * history[0]["train_loss"]
     assert history[-1]["val_iou"] > history[0]["val_iou"] + 0.15
     last = read_checkpoint(tmp_path / "last.pt")
