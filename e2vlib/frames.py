@@ -217,7 +217,8 @@ def accumulate(
     (vectorized blocks and one ``np.bincount``; read it to see how frames are made);
     ``"numba"`` runs the compiled single pass of :mod:`e2vlib.frames_fast`, about twice as
     fast for counts (bench/RESULTS.md; the first call on a machine compiles it, a few
-    seconds, then it is cached on disk);
+    seconds, then it is cached on disk), and counts streams of a million events or more
+    in one part per core, at the same time;
     ``"auto"`` (default) is numba where it is installed, numpy otherwise.
     Introduced in notebooks/02_event_frames.ipynb.
 

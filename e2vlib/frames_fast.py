@@ -7,6 +7,8 @@ if it lies inside a window, counted into a one-frame scratch buffer that stays i
 cache; the buffer is added into the frame stack when the window ends. The window (or
 Eq. 5 group) index is carried from one event to the next and only recomputed when an
 event leaves the current window, so there is no division and no index array per event.
+Long streams (:data:`THREADED_MIN_EVENTS`) are cut at window or group starts into one
+part per core, counted at the same time in threads into disjoint slices of the frames.
 
 Importing this module imports numba; :mod:`e2vlib.frames` does so only on the first fast
 call and falls back to numpy where numba is missing. Compiled code is cached on disk
@@ -16,8 +18,20 @@ only the first call on a machine pays the compile time (a few seconds).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numba
 import numpy as np
+
+THREADED_MIN_EVENTS = 1_000_000
+"""Streams at least this long are cut into one part per core (at most :data:`MAX_PARTS`),
+each part a run of whole windows or groups, and the parts are counted at the same time in
+threads (the loops release the GIL); shorter ones run in one loop."""
+
+MAX_PARTS = 4
+
+_INT64_MAX = 2**63 - 1
 
 
 def _jit(function):
@@ -52,7 +66,113 @@ def fill(x, y, t, p, out, scratch, touched, width, height, t0, dt, n, paper, bin
     kernel = _FILLS.get(key)
     if kernel is None:
         kernel = _FILLS[key] = _make_fill(*key)
-    return kernel(x, y, t, p, out, scratch, touched, width, height, t0, dt, n)
+    parts = min(_cores(), MAX_PARTS, n) if len(t) >= THREADED_MIN_EVENTS else 1
+    if parts < 2 or t0 + n * dt > _INT64_MAX:  # window starts past int64: one loop
+        return kernel(x, y, t, p, out, scratch, touched, width, height, t0, dt, n)
+    return _fill_in_parts(kernel, parts, x, y, t, p, out, scratch, touched, width, height,
+                          t0, dt, n, paper)
+
+
+def _cores() -> int:
+    """CPU cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _fill_in_parts(kernel, parts, x, y, t, p, out, scratch, touched, width, height, t0, dt,
+                   n, paper) -> bool:
+    """:func:`fill` with the frames cut into ``parts`` runs, counted in parallel threads.
+
+    Part ``i`` takes frames ``[m_i, m_{i+1})`` and the events from the first one of frame
+    ``m_i`` (found by bisection for fixed windows, by galloping through the groups for
+    Eq. 5) to the first one of ``m_{i+1}``; it is :func:`fill` on those events with its own
+    ``t0`` (the window's start, or the group's first time), its own scratch buffers and
+    the slice of ``out`` that holds its frames, so parts never write to the same memory.
+    For sorted events every event lands where the single loop puts it: the frames are
+    identical. Unsorted events give arbitrary cuts, but each part checks its own order and
+    the events on either side of each cut are compared, so they are still reported.
+    """
+    frames_at = np.array([i * n // parts for i in range(parts + 1)], dtype=np.int64)
+    starts = _part_starts(t, t0, dt, frames_at[1:-1], paper)
+    cuts = [0, *starts.tolist(), len(t)]
+    frame_size = len(scratch)
+    jobs = []
+    for i in range(parts):
+        lo, hi, m = cuts[i], cuts[i + 1], int(frames_at[i])
+        if hi <= lo:  # no event starts this part's frames: they stay empty
+            continue
+        if i == 0:
+            part_t0 = t0
+        else:
+            part_t0 = int(t[lo]) if paper else t0 + m * dt
+        jobs.append((x[lo:hi], y[lo:hi], t[lo:hi], p[lo:hi],
+                     out[m * frame_size:int(frames_at[i + 1]) * frame_size],
+                     scratch if i == 0 else np.zeros_like(scratch),
+                     touched if i == 0 else np.empty_like(touched),
+                     width, height, part_t0, dt, int(frames_at[i + 1]) - m))
+    with ThreadPoolExecutor(len(jobs)) as pool:
+        results = list(pool.map(lambda job: kernel(*job), jobs))
+    in_order = all(t[c - 1] <= t[c] for c in cuts[1:-1] if 0 < c < len(t))
+    return all(results) and in_order
+
+
+@_jit
+def _part_starts(t, t0, dt, frames, paper):
+    """Index of the first event of each frame in ``frames`` (ascending; ``t`` sorted).
+
+    Fixed windows: the first event at or after ``t0 + m dt``. Eq. 5 groups: the first
+    event of group ``m``, counting groups from the first event at or after ``t0`` (a frame
+    past the last group gets ``len(t)``). Unsorted ``t`` gives ascending indices too.
+    """
+    starts = np.empty(len(frames), dtype=np.int64)
+    if not paper:
+        for j in range(len(frames)):
+            starts[j] = _first_at_or_after(t, t0 + frames[j] * dt)
+        return starts
+    dt_u = np.uint64(dt)
+    i, group = _first_at_or_after(t, t0), 0
+    for j in range(len(frames)):
+        while group < frames[j] and i < len(t):
+            i = _group_end(t, i, dt_u)
+            group += 1
+        starts[j] = i
+    return starts
+
+
+@_jit
+def _first_at_or_after(t, value) -> int:
+    """First index with ``t[index] >= value`` (bisection; ``len(t)`` if none)."""
+    lo, hi = 0, len(t)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t[mid] < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@_jit
+def _group_end(t, i, dt_u) -> int:
+    """First index ``j > i`` with ``t[j] - t[i] > dt`` (``len(t)`` if none).
+
+    A galloping search (steps 1, 2, 4, ... then bisection), so only about log2(group size)
+    times are read per group, not the whole group.
+    """
+    t_j = np.uint64(t[i])
+    step = 1
+    while i + step < len(t) and np.uint64(t[i + step]) - t_j <= dt_u:
+        step *= 2
+    lo, hi = i + step // 2 + 1, min(i + step, len(t))
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if np.uint64(t[mid]) - t_j <= dt_u:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 _FILLS: dict = {}
@@ -148,31 +268,12 @@ def _flush(out, scratch, touched, held, k):
 def count_groups(t, t0, dt) -> int:
     """Number of Eq. 5 groups from the first event at or after ``t0`` (``t`` sorted).
 
-    Each group's end is found by a galloping search (steps 1, 2, 4, ... then bisection),
-    so only about log2(group size) times are read per group, not the whole stream.
+    Each group's end is found by a galloping search (:func:`_group_end`), so only about
+    log2(group size) times are read per group, not the whole stream.
     """
-    lo, hi = 0, len(t)
-    while lo < hi:  # first index with t >= t0
-        mid = (lo + hi) // 2
-        if t[mid] < t0:
-            lo = mid + 1
-        else:
-            hi = mid
     dt_u = np.uint64(dt)
-    i, groups = lo, 0
+    i, groups = _first_at_or_after(t, t0), 0
     while i < len(t):
-        t_j = np.uint64(t[i])
-        # find the first j > i with t[j] - t_j > dt: gallop, then bisect in (i + step/2, j]
-        step = 1
-        while i + step < len(t) and np.uint64(t[i + step]) - t_j <= dt_u:
-            step *= 2
-        lo, hi = i + step // 2 + 1, min(i + step, len(t))
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if np.uint64(t[mid]) - t_j <= dt_u:
-                lo = mid + 1
-            else:
-                hi = mid
+        i = _group_end(t, i, dt_u)
         groups += 1
-        i = lo
     return groups

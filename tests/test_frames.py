@@ -324,9 +324,14 @@ def test_auto_backend_falls_back_to_numpy_without_numba(monkeypatch, random_even
 
 
 @needs_numba
+@pytest.mark.parametrize("threads", [False, True])
 @pytest.mark.parametrize("windows", ["fixed", "paper"])
 @pytest.mark.parametrize("mode", ["binary", "count", "polarity"])
-def test_backends_agree_on_sparse_and_busy_frames(mode, windows):
+def test_backends_agree_on_sparse_and_busy_frames(mode, windows, threads, monkeypatch):
+    if threads:  # cut into 3 parts counted in threads, as streams of >= 1 M events are
+        from e2vlib import frames_fast
+        monkeypatch.setattr(frames_fast, "THREADED_MIN_EVENTS", 1)
+        monkeypatch.setattr(frames_fast, "_cores", lambda: 3)
     # a big sensor with a few events per frame (flushed event by event) and bursts that
     # fill frames (flushed pixel by pixel), with gaps, repeated times and a t0 inside
     rng = np.random.default_rng(7)
@@ -340,3 +345,21 @@ def test_backends_agree_on_sparse_and_busy_frames(mode, windows):
         fast = accumulate(ev, (96, 64), backend="numba", **kw)
         assert fast.dtype == ref.dtype and fast.shape == ref.shape
         np.testing.assert_array_equal(fast, ref)
+
+
+@needs_numba
+@pytest.mark.parametrize("windows", ["fixed", "paper"])
+def test_threaded_counting_reports_unsorted_times(windows, monkeypatch):
+    # each half sorted, the later half first: the cuts found by bisection or galloping mean
+    # nothing then, and the parts' own checks (or the one across each cut) must report it
+    from e2vlib import frames_fast
+    monkeypatch.setattr(frames_fast, "THREADED_MIN_EVENTS", 1)
+    monkeypatch.setattr(frames_fast, "_cores", lambda: 2)
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.integers(0, 100_000, 2_000))
+    t = np.concatenate([t[1_000:], t[:1_000]])
+    ev = make_events(rng.integers(0, 8, 2_000), rng.integers(0, 8, 2_000), t,
+                     rng.choice([-1, 1], 2_000))
+    with pytest.raises(EventError, match="not sorted"):
+        accumulate(ev, (8, 8), dt_us=5_000, t0_us=0, n_frames=20, windows=windows,
+                   backend="numba")

@@ -6,8 +6,10 @@ file runs in seconds. Hypothesis shrinks any failure to a minimal event stream.
 
 from __future__ import annotations
 
+import contextlib
 import tempfile
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -161,6 +163,19 @@ def test_binary_at_most_count_and_polarity_channels_sum_to_count(stream, dt, win
 needs_numba = pytest.mark.skipif(frames._fast_kernels() is None, reason="numba is not installed")
 
 
+@contextlib.contextmanager
+def _threads(on: bool):
+    """With ``on``, the numba backend cuts every stream into parts counted in threads (as
+    it does for streams of a million events and more), up to 4 parts whatever the cores."""
+    if not on or frames._fast_kernels() is None:
+        yield
+        return
+    kernels = frames._fast_kernels()
+    with mock.patch.object(kernels, "THREADED_MIN_EVENTS", 1), \
+            mock.patch.object(kernels, "_cores", lambda: 4):
+        yield
+
+
 def _outcome(events, sensor_size, **kwargs):
     """``accumulate``'s frames, or the text of the EventError it raised."""
     try:
@@ -183,14 +198,15 @@ def _assert_same(reference, fast):
        t0_shift=st.one_of(st.none(), st.integers(-3_000, 20_000)),
        n_frames=st.one_of(st.none(), st.integers(0, 40)),
        mode=st.sampled_from(["binary", "count", "polarity"]),
-       windows=st.sampled_from(["fixed", "paper"]))
+       windows=st.sampled_from(["fixed", "paper"]), threads=st.booleans())
 def test_numba_and_numpy_backends_give_identical_frames(stream, dt, t0_shift, n_frames, mode,
-                                                        windows):
+                                                        windows, threads):
     events, sensor_size, offset = _shifted(stream)
     kwargs = {"dt_us": dt, "t0_us": None if t0_shift is None else offset + t0_shift,
               "n_frames": n_frames, "mode": mode, "windows": windows}
-    _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs),
-                 _outcome(events, sensor_size, backend="numba", **kwargs))
+    with _threads(threads):
+        fast = _outcome(events, sensor_size, backend="numba", **kwargs)
+    _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs), fast)
 
 
 @needs_numba
@@ -198,21 +214,24 @@ def test_numba_and_numpy_backends_give_identical_frames(stream, dt, t0_shift, n_
 @given(stream=event_streams(max_events=12, max_side=6), dt=st.integers(1, 2**63 - 1),
        n_frames=st.one_of(st.none(), st.integers(0, 6)),
        mode=st.sampled_from(["binary", "count", "polarity"]),
-       windows=st.sampled_from(["fixed", "paper"]))
-def test_backends_agree_anywhere_in_the_int64_time_range(stream, dt, n_frames, mode, windows):
+       windows=st.sampled_from(["fixed", "paper"]), threads=st.booleans())
+def test_backends_agree_anywhere_in_the_int64_time_range(stream, dt, n_frames, mode, windows,
+                                                         threads):
     # times anywhere in int64, windows up to 2^63 us: spans that overflow int64 arithmetic,
     # and stacks too large to allocate (both backends must refuse them alike)
     events, sensor_size = stream
     kwargs = {"dt_us": dt, "n_frames": n_frames, "mode": mode, "windows": windows}
-    _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs),
-                 _outcome(events, sensor_size, backend="numba", **kwargs))
+    with _threads(threads):
+        fast = _outcome(events, sensor_size, backend="numba", **kwargs)
+    _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs), fast)
 
 
 @needs_numba
 @SETTINGS
 @given(stream=SMALL_STREAMS, broken=st.sampled_from(["x", "y", "p", "t"]),
-       where=st.floats(0, 1), windows=st.sampled_from(["fixed", "paper"]))
-def test_backends_reject_broken_events_alike(stream, broken, where, windows):
+       where=st.floats(0, 1), windows=st.sampled_from(["fixed", "paper"]),
+       threads=st.booleans())
+def test_backends_reject_broken_events_alike(stream, broken, where, windows, threads):
     events, sensor_size, _ = _shifted(stream)
     if len(events) < 2:
         return
@@ -228,5 +247,6 @@ def test_backends_reject_broken_events_alike(stream, broken, where, windows):
         events["t"][i] = events["t"][i - 1] - 1 if i else events["t"][1] + 1
     reference = _outcome(events, sensor_size, dt_us=500, windows=windows, backend="numpy")
     assert isinstance(reference, str)
-    assert _outcome(events, sensor_size, dt_us=500, windows=windows,
-                    backend="numba") == reference
+    with _threads(threads):
+        assert _outcome(events, sensor_size, dt_us=500, windows=windows,
+                        backend="numba") == reference
