@@ -12,6 +12,7 @@ bench/RESULTS.md.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
@@ -50,6 +51,21 @@ def make_stream(seed: int = 0) -> np.ndarray:
     t = np.sort(rng.integers(0, N_FRAMES * DT, N_EVENTS))
     return make_events(rng.integers(0, SIZE, N_EVENTS), rng.integers(0, SIZE, N_EVENTS), t,
                        rng.integers(0, 2, N_EVENTS))
+
+
+ONE_THREAD = "numba, 1 thread"
+
+
+@contextlib.contextmanager
+def one_thread():
+    """The numba backend without its threaded parts: one loop over the whole stream."""
+    kernels = frames._fast_kernels()
+    saved = kernels.THREADED_MIN_EVENTS
+    kernels.THREADED_MIN_EVENTS = 2**62
+    try:
+        yield
+    finally:
+        kernels.THREADED_MIN_EVENTS = saved
 
 
 def read_bandwidth(nbytes: int) -> float:
@@ -117,11 +133,20 @@ def main(repeat: int = 5) -> str:
                     lambda m=mode, w=windows, b=name: accumulate(
                         events, (SIZE, SIZE), DT, 0, N_FRAMES, m, w, backend=b),
                     repeat=repeat)
+            if fast:  # the same kernel in one thread (the parts are counted in threads)
+                with one_thread():
+                    ours[mode, windows, ONE_THREAD] = timeit(
+                        lambda m=mode, w=windows: accumulate(
+                            events, (SIZE, SIZE), DT, 0, N_FRAMES, m, w, backend="numba"),
+                        repeat=repeat)
     try:
         tonic, dropped = tonic_runs(events, repeat)
     except ImportError:
         tonic, dropped = {}, None
     bandwidth = read_bandwidth(events.nbytes)
+    cores = frames._fast_kernels()._cores() if fast else 1
+    no_tonic = ("" if tonic else " tonic is not installed here (`pip install -r "
+                "environment/bench-requirements.txt`), so no row compares with it.")
     first = first_call_seconds()
     groups = len(accumulate(events, (SIZE, SIZE), DT, 0, None, "binary", "paper"))
 
@@ -137,7 +162,7 @@ def main(repeat: int = 5) -> str:
         if tonic:
             rows.append(row(f"tonic `ToFrame`, {mode}", tonic[mode], mode))
         for windows in ("fixed", "paper"):
-            for name in dict.fromkeys(("numpy", backend)):
+            for name in dict.fromkeys(("numpy", backend, ONE_THREAD if fast else "numpy")):
                 label = f"e2vlib `{mode}`, `{windows}`, {name}"
                 rows.append(row(f"**{label}**" if name == backend else label,
                                 ours[mode, windows, name], mode))
@@ -150,11 +175,14 @@ as `accumulate` with fixed windows (checked for every mode): its two-channel fra
 thresholded `> 0` (inside the timing; tonic has no binary mode) our `binary` mode. tonic has
 no Eq. 5 grouping, so `paper` rows are compared with tonic's fixed windows of the same mode
 (Eq. 5 cuts this stream into {groups} groups of at most 5001 us; the first {N_FRAMES} are
-kept). Bold: the default backend (`numba` where numba is installed); `numpy` is the plain
-reference (`backend="numpy"`), identical frames. The event array is {events.nbytes / 1e6:.0f} MB
-(13 bytes per event); a plain read of that many bytes runs at {bandwidth / 1e9:.1f} GB/s here,
-so "of memory roof" is (event bytes / time) / that bandwidth: 100% would mean the events are
-read once at full speed and nothing else costs time.
+kept). Bold: the default backend (`numba` where numba is installed; a stream this long is cut
+at window or group starts into one part per core, {cores} here, counted at once in threads);
+"numba, 1 thread" is the same loop over the whole stream in one thread, like tonic and numpy;
+`numpy` is the plain reference (`backend="numpy"`), identical frames.{no_tonic}
+The event array is {events.nbytes / 1e6:.0f} MB (13 bytes per event); a plain read (one
+thread) of that many bytes runs at {bandwidth / 1e9:.1f} GB/s here, so "of memory roof" is
+(event bytes / time) / that bandwidth: 100% would mean the events are read once at full
+speed and nothing else costs time.
 
 | implementation | time per call | events/s | vs tonic (same mode) | of memory roof |
 | --- | --- | --- | --- | --- |
