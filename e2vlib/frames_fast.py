@@ -124,7 +124,8 @@ def _part_starts(t, t0, dt, frames, paper):
 
     Fixed windows: the first event at or after ``t0 + m dt``. Eq. 5 groups: the first
     event of group ``m``, counting groups from the first event at or after ``t0`` (a frame
-    past the last group gets ``len(t)``). Unsorted ``t`` gives ascending indices too.
+    past the last group gets ``len(t)``). Unsorted ``t`` gives indices that mean nothing,
+    possibly not ascending; the parts' ranges still cover every event, so its checks run.
     """
     starts = np.empty(len(frames), dtype=np.int64)
     if not paper:

@@ -561,10 +561,10 @@ def _check_gradients(model: nn.Module, epoch: int, step: int) -> None:
     """Raise FloatingPointError naming the first parameter whose gradient is NaN/inf.
 
     Only bf16 training checks (one reduction per parameter and step). oneDNN's bfloat16
-    kernels (torch 2.13 on an Intel Xeon, AMX or AVX-512 BF16) return garbage, often inf or NaN, for
-    the weight gradient of a 3x3x3 convolution whose input is a single voxel along every
-    axis (the taps that only see padding should get 0); with 2 or more voxels per axis
-    they agree with fp32. The tiny preset's deepest convolution sees 7 x 4 x 4 voxels, but
+    kernels (torch 2.13 on an Intel Xeon, AMX or AVX-512 BF16) return garbage, often inf
+    or NaN, for the weight gradient of a 3x3x3 convolution whose input is a single voxel
+    along every axis (the taps that only see padding should get 0); with 2 or more voxels
+    per axis they agree with fp32. The tiny preset's deepest convolution sees 7 x 4 x 4 voxels, but
     a model for small frames can end in such a layer, and a NaN weight would otherwise
     only surface later, far from its cause.
     """

@@ -408,9 +408,9 @@ def test_channels_last_keeps_the_values_and_trains_the_same(tmp_path, preset):
 # 3x3x3 convolution whose input is a single voxel along every axis: the taps that only
 # ever see padding should get 0 (measured on an Intel Xeon, torch 2.13, with AMX and with
 # ONEDNN_MAX_CPU_ISA=AVX512_CORE_BF16; at 2 or more voxels per axis the gradient agrees
-# with fp32 to 0.6 %). SHAPE's model ends in such
-# a layer, so the bf16 test uses a model whose deepest convolution sees 2 x 2 x 2 voxels
-# (16^3 frames, no stem pooling: 16 -> 8 -> 4 -> 2), as the tiny preset's sees 7 x 4 x 4.
+# with fp32 to 0.6 %). SHAPE's model ends in such a layer, so the bf16 test uses a model
+# whose deepest convolution sees 2 x 2 x 2 voxels (16^3 frames, no stem pooling:
+# 16 -> 8 -> 4 -> 2), as the tiny preset's sees 7 x 4 x 4.
 BF16_SHAPE = (16, 16, 16)
 
 
