@@ -14,6 +14,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from e2vlib.experiments import cpu_name
+
 RESULTS = Path(__file__).resolve().parent / "RESULTS.md"
 HEADER = (
     "# Benchmark results\n\n"
@@ -43,13 +45,7 @@ def spread(result: dict[str, float], scale: float = 1.0, unit: str = "s") -> str
 
 def machine() -> str:
     """One line: CPU model, cores, Python and key library versions."""
-    cpu = platform.processor() or "unknown CPU"
-    try:
-        text = Path("/proc/cpuinfo").read_text()
-        match = re.search(r"model name\s*:\s*(.+)", text)
-        cpu = match.group(1).strip() if match else cpu
-    except OSError:
-        pass
+    cpu = cpu_name()
     versions = []
     for name in ("numpy", "torch", "vtk", "trimesh", "tonic"):
         try:

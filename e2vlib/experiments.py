@@ -166,11 +166,14 @@ STUDIES: dict[str, Study] = {
 }
 """The studies of issues 12 and 13, by name."""
 
-NEUTRAL: dict[str, tuple[str, ...]] = {"train_scale": ("train_scale", "extra"),
-                                       "noise": ("noise", "noise_events", "test_noise")}
-"""Protocol keys that change nothing about training at their base value (``train_scale`` 1
-is data_small's own training set, ``noise`` "clean" its own events; ``test_noise`` only adds
-test scores): :func:`canonical_protocol` drops them (and the keys that go with them)."""
+NEUTRAL: dict[str, tuple[object, tuple[str, ...]]] = {
+    "train_scale": (1, ("train_scale", "extra")),
+    "noise": ("clean", ("noise", "noise_events", "test_noise")),
+}
+"""Protocol keys that change nothing about training at their base value, with that value and
+the keys that go with them (``train_scale`` 1 is data_small's own training set, ``noise``
+"clean" its own events; ``test_noise`` only adds test scores): :func:`canonical_protocol`
+drops them."""
 
 
 def canonical_protocol(protocol: dict) -> dict:
@@ -188,12 +191,10 @@ def canonical_protocol(protocol: dict) -> dict:
     {'epochs': 12}
     """
     out = dict(protocol)
-    if out.get("train_scale", 1) == 1:
-        for key in NEUTRAL["train_scale"]:
-            out.pop(key, None)
-    if out.get("noise", "clean") == "clean":
-        for key in NEUTRAL["noise"]:
-            out.pop(key, None)
+    for key, (base, keys) in NEUTRAL.items():
+        if out.get(key, base) == base:
+            for dropped in keys:
+                out.pop(dropped, None)
     return out
 
 

@@ -24,14 +24,14 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
+from e2vlib.events import INT64_MAX
+
 THREADED_MIN_EVENTS = 1_000_000
 """Streams at least this long are cut into one part per core (at most :data:`MAX_PARTS`),
 each part a run of whole windows or groups, and the parts are counted at the same time in
 threads (the loops release the GIL); shorter ones run in one loop."""
 
 MAX_PARTS = 4
-
-_INT64_MAX = 2**63 - 1
 
 
 def _jit(function):
@@ -67,7 +67,7 @@ def fill(x, y, t, p, out, scratch, touched, width, height, t0, dt, n, paper, bin
     if kernel is None:
         kernel = _FILLS[key] = _make_fill(*key)
     parts = min(_cores(), MAX_PARTS, n) if len(t) >= THREADED_MIN_EVENTS else 1
-    if parts < 2 or t0 + n * dt > _INT64_MAX:  # window starts past int64: one loop
+    if parts < 2 or t0 + n * dt > INT64_MAX:  # window starts past int64: one loop
         return kernel(x, y, t, p, out, scratch, touched, width, height, t0, dt, n)
     return _fill_in_parts(kernel, parts, x, y, t, p, out, scratch, touched, width, height,
                           t0, dt, n, paper)

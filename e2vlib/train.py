@@ -564,9 +564,9 @@ def _check_gradients(model: nn.Module, epoch: int, step: int) -> None:
     kernels (torch 2.13 on an Intel Xeon, AMX or AVX-512 BF16) return garbage, often inf
     or NaN, for the weight gradient of a 3x3x3 convolution whose input is a single voxel
     along every axis (the taps that only see padding should get 0); with 2 or more voxels
-    per axis they agree with fp32. The tiny preset's deepest convolution sees 7 x 4 x 4 voxels, but
-    a model for small frames can end in such a layer, and a NaN weight would otherwise
-    only surface later, far from its cause.
+    per axis they agree with fp32. The tiny preset's deepest convolution sees 7 x 4 x 4
+    voxels, but a model for small frames can end in such a layer, and a NaN weight would
+    otherwise only surface later, far from its cause.
     """
     for name, parameter in model.named_parameters():
         if parameter.grad is not None and not torch.isfinite(parameter.grad).all():
@@ -575,7 +575,6 @@ def _check_gradients(model: nn.Module, epoch: int, step: int) -> None:
                 f"step {step + 1}); this device's bfloat16 kernels are not usable for this "
                 "model (a convolution whose input is 1 voxel along every axis gives such "
                 "gradients): train with precision='fp32' or on larger frames")
-
 
 
 def bf16_is_fast(device: str | torch.device = "cpu") -> bool:
