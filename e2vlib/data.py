@@ -69,7 +69,10 @@ class BuildConfig:
     ``noise``: the simulator's sensor noise, a key of
     :data:`e2vlib.simulate.NOISE_LEVELS` (``"clean"``: none, what data_small uses);
     ``splits``: build only these splits (the plan, and so every sample's split and seed, is
-    the full build's). These three are written to config.json only when they differ from
+    the full build's); ``anti_aliasing``: the renderer's edge smoothing, a mode of
+    :data:`e2vlib.render.ANTI_ALIASING` (``"ssaa"``, what data_small uses; ``"none"`` renders
+    about 4x (128 px) to 8x (256 px) faster and changes the events at moving edges, see
+    bench/RESULTS.md). These four are written to config.json only when they differ from
     their defaults, so older configs keep their exact form.
 
     Examples
@@ -95,8 +98,10 @@ class BuildConfig:
     grey_video: bool = False
     noise: str = "clean"
     splits: tuple[str, ...] = SPLITS
+    anti_aliasing: str = "ssaa"
 
     def __post_init__(self):
+        from e2vlib.render import ANTI_ALIASING
         from e2vlib.simulate import NOISE_LEVELS
 
         object.__setattr__(self, "categories", tuple(self.categories))
@@ -128,6 +133,9 @@ class BuildConfig:
         if self.noise not in NOISE_LEVELS:
             problems.append(f"noise must be one of {', '.join(NOISE_LEVELS)}, got "
                             f"{self.noise!r}")
+        if self.anti_aliasing not in ANTI_ALIASING:
+            problems.append(f"anti_aliasing must be one of {', '.join(ANTI_ALIASING)}, got "
+                            f"{self.anti_aliasing!r}")
         if not self.splits or any(x not in SPLITS for x in self.splits) or len(
                 set(self.splits)) != len(self.splits):
             problems.append(f"splits must be some of {', '.join(SPLITS)} (each once), got "
@@ -145,8 +153,8 @@ class BuildConfig:
 
     def to_dict(self) -> dict:
         """A JSON-ready dict of every field (categories as a list); ``grey_video``,
-        ``noise`` and ``splits`` only when not their defaults, so configs without them keep
-        their exact old form."""
+        ``noise``, ``splits`` and ``anti_aliasing`` only when not their defaults, so configs
+        without them keep their exact old form."""
         d = asdict(self)
         d["categories"] = list(self.categories)
         if not self.grey_video:
@@ -155,6 +163,8 @@ class BuildConfig:
             d["grey_video"] = True
         if self.noise == "clean":
             del d["noise"]
+        if self.anti_aliasing == "ssaa":
+            del d["anti_aliasing"]
         if tuple(self.splits) == SPLITS:
             del d["splits"]
         else:
@@ -421,7 +431,8 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     mesh = normalize_mesh(mesh)
     voxels = voxelize(mesh, paper.GRID_SIDE)
     video, t_us = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
-                               resolution=config.resolution, oversample=config.oversample)
+                               resolution=config.resolution, oversample=config.oversample,
+                               anti_aliasing=config.anti_aliasing)
     events = simulate_events(video, t_us, contrast_pos=config.contrast,
                              contrast_neg=config.contrast, seed=seed,
                              **NOISE_LEVELS[config.noise])
@@ -669,6 +680,8 @@ def make_data_command(config: BuildConfig, out: str | os.PathLike,
         parts += ["--noise", config.noise]
     if tuple(config.splits) != SPLITS:
         parts += ["--splits", *config.splits]
+    if config.anti_aliasing != "ssaa":
+        parts += ["--anti-aliasing", config.anti_aliasing]
     if shard is not None:
         parts += ["--shard", shard]
     return " ".join(parts)

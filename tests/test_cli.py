@@ -342,11 +342,15 @@ def test_reconstruct_refuses_an_inconsistent_checkpoint(trained, capsys, tmp_pat
 def test_reconstruct_refuses_nan_output(trained, capsys, tmp_path, monkeypatch):
     import e2vlib.train
 
-    root, _, out = trained
+    _, _, out = trained
+    rng = np.random.default_rng(1)  # events of its own: the test must not need another's
+    events = make_events(rng.integers(0, 40, 500), rng.integers(0, 30, 500),
+                         np.sort(rng.integers(0, 500_000, 500)), rng.integers(0, 2, 500))
+    save_events(tmp_path / "events.h5", events, (40, 30))
     monkeypatch.setattr(e2vlib.train, "predict",
                         lambda model, frames, device: torch.full((1, 32, 32, 32), math.nan))
     code, _, err = run(capsys, "reconstruct", "--checkpoint", out / "best.pt", "--events",
-                       root / "rec_events.h5", "--out", tmp_path / "r.npz")
+                       tmp_path / "events.h5", "--out", tmp_path / "r.npz")
     assert code == 1 and "NaN/inf" in err and not (tmp_path / "r.npz").exists()
 
 
@@ -428,7 +432,7 @@ def test_make_data_command_spells_out_the_config_it_came_from():
                                frame_size=16, oversample=2, contrast=0.15, seed=4,
                                windows="paper", n_frames=50, dt_us=10_000, grey_video=True),
                    BuildConfig(categories=("lamp",), per_category=3, noise="high",
-                               splits=("val", "test")),
+                               splits=("val", "test"), anti_aliasing="none"),
                    BuildConfig.from_dict(json.loads((REPO / "data_small" / "config.json")
                                                     .read_text()))):
         command = make_data_command(config, "out_dir", "1/4").split()
@@ -441,6 +445,7 @@ def test_make_data_command_spells_out_the_config_it_came_from():
     (("--contrast", "0"), r"argument --contrast: must be a finite number > 0, got 0"),
     (("--grey-video", "yes"), r"unrecognized arguments: yes"),
     (("--noise", "loud"), r"argument --noise: invalid choice: 'loud'"),
+    (("--anti-aliasing", "fxaa"), r"argument --anti-aliasing: invalid choice: 'fxaa'"),
     (("--splits", "holdout"), r"argument --splits: invalid choice: 'holdout'"),
     (("--splits", "test", "test"), r"splits must be some of train, val, test \(each once\)"),
 ])

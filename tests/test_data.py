@@ -1,3 +1,4 @@
+import dataclasses
 import json
 from collections import Counter
 
@@ -10,6 +11,7 @@ from e2vlib.data import (
     E2VDataset,
     build_dataset,
     load_sample,
+    mesh_to_sample,
     plan_samples,
     read_manifest,
     save_sample,
@@ -196,7 +198,7 @@ def test_data_small_records_its_frame_grouping():
     ({"oversample": 0}, "oversample"), ({"per_category": 0}, "per_category"),
     ({"categories": ()}, "categories"), ({"categories": ("bogus",)}, "bogus"),
     ({"windows": "clock"}, "windows"), ({"dt_us": -1}, "dt_us"), ({"contrast": 0.0}, "contrast"),
-    ({"frame_size": 0}, "frame_size"),
+    ({"frame_size": 0}, "frame_size"), ({"anti_aliasing": "fxaa"}, "anti_aliasing"),
 ])
 def test_build_config_refuses_bad_settings_by_name(change, problem):
     settings = {"categories": ("chair",), "per_category": 2, "oversample": 3} | change
@@ -217,3 +219,27 @@ def test_a_paper_windows_build_stores_eq5_frames(tmp_path):
     expected = events_to_frames(events, sensor, 16, t0_us=0, windows="paper")
     np.testing.assert_array_equal(ds.arrays(0)[0], expected)
     assert ds.arrays(0)[0][: int(expected.any(axis=(1, 2)).sum())].any(axis=(1, 2)).all()
+
+
+def test_anti_aliasing_is_a_build_setting_that_old_configs_read_as_ssaa():
+    from e2vlib.render import render_orbit
+    from e2vlib.shapes import make_shape, normalize_mesh
+    from e2vlib.simulate import simulate_events
+
+    stored = json.loads((REPO / "data_small" / "config.json").read_text())
+    assert "anti_aliasing" not in stored  # written only when not the default
+    assert BuildConfig.from_dict(stored).anti_aliasing == "ssaa"
+    config = BuildConfig(categories=("chair",), per_category=3, resolution=32, frame_size=16,
+                         oversample=2, anti_aliasing="none")
+    assert config.to_dict()["anti_aliasing"] == "none"
+    assert BuildConfig.from_dict(json.loads(json.dumps(config.to_dict()))) == config
+    # the sample is made from the un-anti-aliased render: the same voxels, other events
+    mesh = make_shape("chair", 0)
+    fast = mesh_to_sample(mesh, config, seed=1)
+    smooth = mesh_to_sample(mesh, dataclasses.replace(config, anti_aliasing="ssaa"), seed=1)
+    np.testing.assert_array_equal(fast.voxels, smooth.voxels)
+    video, t_us = render_orbit(normalize_mesh(mesh), 120, 240, 32, oversample=2,
+                               anti_aliasing="none")
+    events = simulate_events(video, t_us, contrast_pos=0.2, contrast_neg=0.2, seed=1)
+    np.testing.assert_array_equal(fast.events, events)
+    assert not np.array_equal(fast.frames, smooth.frames)

@@ -278,3 +278,43 @@ def test_only_runs_of_the_same_cpu_model_are_copied(tmp_path):
     assert found["reused_from"] == "other/a" and found["cpu"] == "AMD EPYC"
     assert find_same_run(tmp_path, protocol, 0, "cpu", cpu="Intel Xeon") is None
     assert find_same_run(tmp_path, protocol, 1, "cpu", cpu="AMD EPYC") is None
+
+
+# --- the render study (issue 15) ------------------------------------------------------------
+
+
+def test_the_render_study_scores_each_model_on_both_kinds_of_render(tiny_events_dataset,
+                                                                     tmp_path):
+    plain = tmp_path / "plain"
+    config = json.loads((tiny_events_dataset / "config.json").read_text())
+    build_dataset(plain, BuildConfig.from_dict({**config, "anti_aliasing": "none",
+                                                "grey_video": False}), progress=False)
+    overrides = {**_overrides(tiny_events_dataset),
+                 "test_data": {"ssaa": str(tiny_events_dataset), "none": str(plain)}}
+    path = run_study("render", ["ssaa"], seeds=[0], out=tmp_path, quick=True, progress=False,
+                     base_overrides=overrides)
+    metrics = json.loads(path.read_text())["runs"][0]["metrics"]
+    assert metrics["ssaa:iou@0.3"] == pytest.approx(metrics["iou@0.3"], abs=1e-9)
+    assert {"none:iou@0.3", "none:fscore@1%"} <= set(metrics)
+    assert 0 <= metrics["none:iou@0.3"] <= 1
+    # the same objects and labels, other frames
+    ssaa, none = (load_split({**STUDIES["render"].protocol(quick=True), "data": str(root)},
+                             "test") for root in (tiny_events_dataset, plain))
+    assert ssaa.ids == none.ids
+    np.testing.assert_array_equal(ssaa.voxels.numpy(), none.voxels.numpy())
+    assert not torch.equal(ssaa.frames, none.frames)
+
+
+def test_the_render_study_names_the_command_that_builds_its_data(monkeypatch, tmp_path):
+    import e2vlib.experiments as experiments
+    from e2vlib.__main__ import _build_config, build_parser
+
+    assert STUDIES["render"].configs["none"] == {"data": experiments.RENDER_CACHE}
+    args = build_parser().parse_args(experiments.RENDER_COMMAND.split()[3:])
+    assert args.out == experiments.RENDER_CACHE
+    small = json.loads((experiments.REPO / "data_small" / "config.json").read_text())
+    assert _build_config(args) == BuildConfig.from_dict({**small, "anti_aliasing": "none"})
+    missing = str(tmp_path / "not_built")
+    monkeypatch.setitem(experiments.DATA_COMMANDS, missing, "python -m e2vlib make-data X")
+    with pytest.raises(FileNotFoundError, match="make-data X"):
+        load_split({**STUDIES["render"].protocol(quick=True), "data": missing}, "test")
