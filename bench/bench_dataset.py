@@ -192,7 +192,7 @@ def time_render_modes(resolution: int,
     return rows
 
 
-def throughput(workers: int, n_per_category: int = 2, anti_aliasing: str = "ssaa") -> float:
+def throughput(workers: int, n_per_category: int = 8, anti_aliasing: str = "ssaa") -> float:
     """Samples per hour building a 13-category set with ``workers`` processes."""
     config = BuildConfig(categories=CATEGORIES, per_category=n_per_category,
                          anti_aliasing=anti_aliasing)
@@ -299,16 +299,16 @@ events of `"none"` / events of `"ssaa"`; active pixels of the stored binary fram
 anti-aliasing a pixel on a moving edge jumps from object to background grey in one rendered
 frame, so it fires all its events at once; with SSAA the edge is a 2-3 px ramp whose pixels
 each cross fewer thresholds. So `"none"` makes about as many or more events on about a third
-fewer pixels: thinner, jagged outlines in the frames, which share only about 60 % of their
-active pixels with the datasets' frames. The render study (`python -m e2vlib experiment render`,
+fewer pixels: thinner, jagged outlines in the frames, which share only about 55-65 % of
+their active pixels with the datasets' frames. The render study (`python -m e2vlib experiment render`,
 experiments/results/render.json) measures what that does to learning.
 
 | objects | n | events none / ssaa | active frame pixels none / ssaa | frame IoU |
 | --- | --- | --- | --- | --- |
 {nl.join(difference_rows)}
 
-Building 26 samples (2 per category, 128 px) end to end with `build_dataset`, samples per
-hour (including process start-up):
+Building 104 samples (8 per category, 128 px) end to end with `build_dataset`, samples per
+hour (including the workers' start-up, a few seconds each):
 
 | anti_aliasing | 1 worker | `--workers 2` |
 | --- | --- | --- |
