@@ -561,7 +561,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="build only these splits (same objects and splits as the full build)")
     p.add_argument("--anti-aliasing", choices=ANTI_ALIASING, default="ssaa",
                    help="the renderer's edge smoothing (default ssaa, as data_small; 'none' "
-                   "renders 4-8x faster and changes the events at moving edges)")
+                   "renders 4-7x faster and changes the events at moving edges)")
     p.add_argument("--workers", type=positive, default=1, help="parallel processes (default 1)")
     p.add_argument("--shard", default="0/1", help="build only shard i of n, e.g. 2/8 "
                    "(join shard folders with merge-data)")

@@ -71,7 +71,7 @@ class BuildConfig:
     ``splits``: build only these splits (the plan, and so every sample's split and seed, is
     the full build's); ``anti_aliasing``: the renderer's edge smoothing, a mode of
     :data:`e2vlib.render.ANTI_ALIASING` (``"ssaa"``, what data_small uses; ``"none"`` renders
-    about 4x (128 px) to 8x (256 px) faster and changes the events at moving edges, see
+    about 4x (128 px) to 7x (256 px) faster and changes the events at moving edges, see
     bench/RESULTS.md). These four are written to config.json only when they differ from
     their defaults, so older configs keep their exact form.
 

@@ -176,7 +176,7 @@ STUDIES: dict[str, Study] = {
         "render",
         "The paper renders its videos in Blender and does not say how edges are smoothed; our "
         "datasets use VTK's supersampling (SSAA), about 90 % of a sample's build time. Does "
-        "the network learn as well from the events of renders without anti-aliasing (4-8x "
+        "the network learn as well from the events of renders without anti-aliasing (4-7x "
         "faster), and does a model trained on one kind of render work on the other?",
         {"ssaa": {}, "none": {"data": RENDER_CACHE}},
         base={"test_data": {"ssaa": "data_small", "none": RENDER_CACHE}},

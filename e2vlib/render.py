@@ -528,8 +528,8 @@ def render_orbit(
     :data:`SUPERSAMPLE_FACTOR` x larger on each side with one sample per pixel and
     averages each 2 x 2 block of gray values here; ``"none"`` takes one sample per pixel
     (aliased edges flicker and make extra events). On a CPU renderer ``"msaa"`` and
-    ``"supersample"`` take about half the time of ``"ssaa"`` and ``"none"`` a sixth (128 px)
-    to an eighth (256 px); the sharper the edges, the more an event simulator's events
+    ``"supersample"`` take about half the time of ``"ssaa"`` and ``"none"`` a quarter (128 px)
+    to a seventh (256 px); the sharper the edges, the more an event simulator's events
     gather on fewer pixels (``BuildConfig(anti_aliasing=...)`` builds datasets either way;
     bench/RESULTS.md, "Dataset building", compares the events).
 
