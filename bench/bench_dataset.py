@@ -147,7 +147,7 @@ def event_difference_row(label: str, pairs: list[tuple[int, int, np.ndarray, np.
             f"{median_spread(overlap)} |")
 
 
-def dataset_difference_row(smooth_root: Path, plain_root: Path) -> str | None:
+def dataset_difference_row(smooth_root: Path, plain_root: Path, label: str) -> str | None:
     """The same comparison over every sample of two builds of the same objects (None when
     ``plain_root`` is not built)."""
     if not (plain_root / "manifest.csv").exists():
@@ -165,10 +165,7 @@ def dataset_difference_row(smooth_root: Path, plain_root: Path) -> str | None:
                       int(rows[plain_root][sample_id]["n_events"]), f.astype(bool),
                       g.astype(bool)))
     resolution = json.loads((smooth_root / "config.json").read_text())["resolution"]
-    names = [root.relative_to(REPO) if root.is_relative_to(REPO) else root
-             for root in (plain_root, smooth_root)]
-    return event_difference_row(f"`{names[0]}` vs `{names[1]}`, every sample, "
-                                f"{resolution} px", pairs)
+    return event_difference_row(f"{label}, every sample, {resolution} px", pairs)
 
 
 def time_render_modes(resolution: int,
@@ -236,8 +233,9 @@ def main(argv: list[str] | None = None) -> str:
         smooth, plain = results["ssaa"]["samples"], results["none"]["samples"]
         difference_rows.append(event_difference_row(
             f"{', '.join(PROBE)}, {resolution} px",
-            [(*smooth[c][:1], *plain[c][:1], smooth[c][1], plain[c][1]) for c in PROBE]))
-    whole = dataset_difference_row(REPO / "data_small", REPO / RENDER_CACHE)
+            [(smooth[c][0], plain[c][0], smooth[c][1], plain[c][1]) for c in PROBE]))
+    whole = dataset_difference_row(REPO / "data_small", REPO / RENDER_CACHE,
+                                   f"`{RENDER_CACHE}` vs `data_small`")
     difference_rows.append(whole or f"| every data_small object: build `{RENDER_CACHE}` with "
                            f"`{RENDER_COMMAND}` | | | | |")
     print(*difference_rows, sep="\n", flush=True)

@@ -581,20 +581,21 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
                                                      threshold=threshold)))
     metrics["per_category_iou@0.3"] = {c: float(v["iou@0.3"])
                                       for c, v in result["per_category"].items()}
-    for name, root in protocol.get("test_data", {}).items():  # the same model on other data
-        other = load_split({**protocol, "data": root}, "test", progress)
+    def other_test(name: str, changes: dict, at_val_threshold: bool) -> None:
+        """Score the same model on another test split: ``name:iou@0.3`` etc."""
+        other = load_split({**protocol, **changes}, "test", progress)
         probabilities = predict(best, other.frames, device)
         scores = summarize_scores(score_predictions(probabilities, other.voxels),
                                   other.categories)["overall"]
         metrics.update({f"{name}:{k}": float(scores[k]) for k in ("iou@0.3", "fscore@1%")})
-    for level in protocol.get("test_noise", ()):  # the same model on other noise levels
-        noisy = load_split({**protocol, "noise": level}, "test", progress)
-        probabilities = predict(best, noisy.frames, device)
-        scores = summarize_scores(score_predictions(probabilities, noisy.voxels),
-                                  noisy.categories)["overall"]
-        metrics.update({f"{level}:{k}": float(scores[k]) for k in ("iou@0.3", "fscore@1%")})
-        metrics[f"{level}:iou@val_threshold"] = float(np.mean(iou(
-            probabilities, noisy.voxels, threshold=threshold)))
+        if at_val_threshold:
+            metrics[f"{name}:iou@val_threshold"] = float(np.mean(iou(
+                probabilities, other.voxels, threshold=threshold)))
+
+    for name, root in protocol.get("test_data", {}).items():  # other data, e.g. renders
+        other_test(name, {"data": root}, at_val_threshold=False)
+    for level in protocol.get("test_noise", ()):  # other noise levels
+        other_test(level, {"noise": level}, at_val_threshold=True)
     best_epoch = max(history, key=lambda h: h["val_iou"])
     from e2vlib.model import count_parameters
 
