@@ -3,7 +3,7 @@
 Chen, Chung, Tan, Chen, *Dense Voxel 3D Reconstruction Using a Monocular Event Camera*,
 ICVR 2023, pp. 30-35 (doi:10.1109/ICVR57957.2023.10169359). Every other module imports
 these names instead of retyping the numbers; each constant says where in the paper it
-comes from. ``../shared/PAPER.md`` lists the same facts in prose.
+comes from. ``describe()`` shows them as a table, each with where it comes from.
 
 The second half of this file, "Our choices", holds values the paper does not state. Each
 says why we picked it; lessons must present them as ours, never as the paper's.
@@ -197,3 +197,83 @@ keeps a sample near one second of CPU time."""
 
 FRAME_SIZE_PX: int = 64
 """Side of the stored frames of data_small after max-pooling (ours; the paper's 256)."""
+
+
+# ============================================================================= a student's view
+
+
+def _documented_constants() -> list[tuple[str, str, bool]]:
+    """``[(name, docstring, is_ours)]`` for every constant of this file with a docstring,
+    in file order (read with ``ast``, so the docstrings need not be repeated anywhere)."""
+    import ast
+    from pathlib import Path
+
+    source = Path(__file__).read_text()
+    ours_from = source.index("=" * 77 + " our choices")
+    tree = ast.parse(source)
+    found = []
+    body = tree.body
+    for node, following in zip(body, body[1:], strict=False):
+        if not (isinstance(following, ast.Expr) and isinstance(following.value, ast.Constant)
+                and isinstance(following.value.value, str)):
+            continue
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            names = [node.target.id]
+        elif isinstance(node, ast.Assign) and isinstance(node.targets[0], (ast.Name, ast.Tuple)):
+            target = node.targets[0]
+            names = [target.id] if isinstance(target, ast.Name) else [e.id for e in target.elts]
+        else:
+            continue
+        doc = " ".join(following.value.value.split())
+        offset = sum(len(line) + 1 for line in source.splitlines()[:node.lineno - 1])
+        found += [(name, doc, offset > ours_from) for name in names]
+    return found
+
+
+def _short(value) -> str:
+    if isinstance(value, dict) and all(isinstance(v, dict) for v in value.values()):
+        return "; ".join(f"{k}: {v['overall']}" for k, v in value.items()) + " (overall)"
+    if isinstance(value, dict):
+        if len(value) > 6:
+            return f"{len(value)} entries"
+        return ", ".join(f"{k} {v}" for k, v in value.items())
+    if isinstance(value, tuple):
+        return ", ".join(str(v) for v in value)
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10_000:
+        return f"{value:,}"
+    return str(value)
+
+
+def describe(names=None, ours: bool | None = None) -> str:
+    """A markdown table of the paper's facts (and, apart, our choices): name, value, source.
+
+    ``names`` picks constants (default: all); ``ours=False`` keeps only the paper's facts,
+    ``ours=True`` only our choices. In a notebook, show it with
+    ``IPython.display.Markdown(paper.describe(...))``.
+
+    Examples
+    --------
+    >>> print(describe(["DT_US"]))
+    | constant | value | where it comes from |
+    | --- | --- | --- |
+    | `DT_US` | 5000 | paper: Delta t of one event frame, microseconds (Sec. III-A: "0.005 s"). |
+    >>> describe(["IOU_THRESHOLD"]).splitlines()[2][:48]
+    '| `IOU_THRESHOLD` | 0.3 | **our choice**: Voxelis'
+    """
+    constants = _documented_constants()
+    known = {name for name, _, _ in constants}
+    if names is not None:
+        unknown = [n for n in names if n not in known]
+        if unknown:
+            raise KeyError(f"no documented constant {unknown} in e2vlib.paper; "
+                           f"known: {sorted(known)}")
+        order = {name: i for i, name in enumerate(names)}
+        constants = sorted((c for c in constants if c[0] in order), key=lambda c: order[c[0]])
+    if ours is not None:
+        constants = [c for c in constants if c[2] == ours]
+    lines = ["| constant | value | where it comes from |", "| --- | --- | --- |"]
+    for name, doc, is_ours in constants:
+        source = "**our choice**" if is_ours else "paper"
+        value = _short(globals()[name])
+        lines.append(f"| `{name}` | {value} | {source}: {doc.replace('|', '/')} |")
+    return "\n".join(lines)

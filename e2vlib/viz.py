@@ -510,8 +510,8 @@ def view_reconstructions(truths, predictions, threshold: float = paper.IOU_THRES
 
     The layout of the paper's Figure 3. ``truths`` and ``predictions`` are one grid
     ``(R, R, R)`` or sequences/stacks of ``n`` grids; predictions are probabilities,
-    drawn where ``>= threshold`` and coloured by value, each panel titled with its IoU at
-    ``threshold``. With ``link`` all ``2 n`` views share one camera: turning one turns
+    drawn where ``>= threshold`` and coloured by value (one probability bar, in the last
+    panel), each panel titled with its IoU at ``threshold``. With ``link`` all ``2 n`` views share one camera: turning one turns
     all. Returns the plotter with ``shape == (2, n)`` (not shown).
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
     """
@@ -533,7 +533,7 @@ def view_reconstructions(truths, predictions, threshold: float = paper.IOU_THRES
         plotter.add_text(f"{title}\nground truth" if title else "ground truth", font_size=9,
                          color="black")
         plotter.subplot(1, col)
-        add_voxels(plotter, pred, threshold, cmap="viridis", scalar_bar=False)
+        add_voxels(plotter, pred, threshold, cmap="viridis", scalar_bar=col == n - 1)
         plotter.add_text(f"prediction\nIoU@{threshold:g} = {float(iou(pred, gt, threshold)):.2f}",
                          font_size=9, color="black")
         aim_at_object(plotter, zoom=1.15)

@@ -131,6 +131,7 @@ def test_view_reconstructions_links_2_by_n_views(closing):
     text = _texts(plotter)
     assert text.count("IoU@0.3 = 0.98") == 2 and text.count("IoU@0.3 = 1.00") == 1
     assert "a\nground truth" in text
+    assert list(plotter.scalar_bars.keys()) == ["probability"]  # one bar for the whole figure
     unlinked = viz.view_reconstructions(gt, pred, off_screen=True, link=False)
     closing(unlinked)
     assert unlinked.shape == (2, 1)

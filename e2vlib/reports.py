@@ -1,0 +1,219 @@
+"""Recorded results, read the same way by every lesson: study records and bench figures.
+
+Lessons never retype a recorded number; they read it from here:
+
+- :func:`load_results` reads ``experiments/results/STUDY.json`` (a record of
+  :func:`e2vlib.experiments.run_study`) and names the command that makes it when it is missing;
+- :func:`report` prints a study's table (mean ± std and 95 % interval per config), each
+  config against a baseline by the one rule of :func:`is_real_difference`, and where and how
+  long the runs trained; :func:`finding` says the result in one sentence;
+- :func:`bench_section` and :func:`bench_table` read ``bench/RESULTS.md``, the benchmarks'
+  figures, by section title, with the machine the section was measured on.
+
+The rule for "a real difference" is stated once, here and in lesson 09: two configs differ
+beyond the seed spread only when their 95 % intervals (Student's t over the seeds) do not
+overlap. With 3 seeds it is a conservative reading; a difference inside it is not a proof
+of equality either.
+
+Examples
+--------
+>>> rows = [{"config": "a", "n": 3, "mean": 0.40, "ci95": (0.35, 0.45), "values": [0.4] * 3},
+...         {"config": "b", "n": 3, "mean": 0.55, "ci95": (0.50, 0.60), "values": [0.55] * 3},
+...         {"config": "c", "n": 3, "mean": 0.44, "ci95": (0.40, 0.48), "values": [0.44] * 3}]
+>>> is_real_difference(rows[1], rows[0]), is_real_difference(rows[2], rows[0])
+(True, False)
+>>> finding(rows, "a")
+'b is above a beyond the seed spread (0.550 against 0.400, +0.150); c is within it (0.440).'
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from . import experiments
+
+REPO = Path(__file__).resolve().parent.parent
+RESULTS_DIR = REPO / "experiments" / "results"
+BENCH_RESULTS = REPO / "bench" / "RESULTS.md"
+
+
+class MissingResultsError(FileNotFoundError):
+    """A recorded result a lesson reads is not on disk; the message gives the command."""
+
+
+# ----------------------------------------------------------------------------- study records
+
+
+def load_results(study: str, root: str | os.PathLike | None = None) -> dict:
+    """The recorded study ``study`` (``ROOT/STUDY.json``, default ``experiments/results``).
+
+    Raises :class:`MissingResultsError` naming the command that records it when the file is
+    missing, and a ``ValueError`` naming the file when it is not a study record.
+    """
+    path = Path(root if root is not None else RESULTS_DIR) / f"{study}.json"
+    if not path.exists():
+        if study in experiments.STUDIES:
+            command = experiments.command_line(study, None, [0, 1, 2], False)
+        else:
+            command = f"python -m e2vlib experiment {study}"
+        raise MissingResultsError(f"no recorded {study!r} study at {path}: run `{command}` "
+                                  "from the repository root (it resumes if interrupted)")
+    try:
+        results = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise ValueError(f"{path} is not a readable study record ({error}); restore it with "
+                         "`git checkout -- experiments/results` or rerun the study") from None
+    if not isinstance(results, dict) or not isinstance(results.get("runs"), list):
+        raise ValueError(f"{path} holds no 'runs' list: not a study record")
+    return results
+
+
+def is_real_difference(row: dict, base: dict) -> bool:
+    """True when the 95 % intervals of two :func:`~e2vlib.experiments.summarize` rows do not
+    overlap (the one rule every study lesson uses); False when either has one seed."""
+    low, high = row["ci95"]
+    base_low, base_high = base["ci95"]
+    if not all(np.isfinite([low, high, base_low, base_high])):
+        return False
+    return bool(low > base_high or high < base_low)
+
+
+def runs_of(results: dict, config: str) -> list[dict]:
+    """The recorded runs of one config, in file order."""
+    return [run for run in results["runs"] if run.get("config") == config]
+
+
+def minutes_per_run(results: dict) -> dict[str, float]:
+    """Mean minutes of training per run, per config (``train_seconds`` of the records)."""
+    minutes: dict[str, list[float]] = {}
+    for run in results["runs"]:
+        if "train_seconds" in run:
+            minutes.setdefault(run["config"], []).append(run["train_seconds"] / 60)
+    return {config: float(np.mean(values)) for config, values in minutes.items()}
+
+
+def recorded_on(results: dict) -> str:
+    """Where the runs trained: the CPU model names (or device) in the records, joined."""
+    names = sorted({run.get("cpu") or run.get("device", "unknown") for run in results["runs"]})
+    return " and ".join(names)
+
+
+def finding(rows: list[dict], baseline: str, metric: str = "iou@0.3") -> str:
+    """One sentence: which configs differ from ``baseline`` beyond the seed spread, with means.
+
+    ``rows`` come from :func:`~e2vlib.experiments.summarize`; the rule is
+    :func:`is_real_difference`.
+    """
+    base = next((r for r in rows if r["config"] == baseline), None)
+    if base is None:
+        raise ValueError(f"no config {baseline!r} among {[r['config'] for r in rows]}")
+    above, below, within = [], [], []
+    for row in rows:
+        if row is base:
+            continue
+        if is_real_difference(row, base):
+            (above if row["mean"] > base["mean"] else below).append(row)
+        else:
+            within.append(row)
+    parts = []
+    for group, word in ((above, "above"), (below, "below")):
+        if group:
+            names = " and ".join(r["config"] for r in group)
+            values = ", ".join(f"{r['mean']:.3f}" for r in group)
+            deltas = ", ".join(f"{r['mean'] - base['mean']:+.3f}" for r in group)
+            verb = "is" if len(group) == 1 else "are"
+            parts.append(f"{names} {verb} {word} {baseline} beyond the seed spread "
+                         f"({values} against {base['mean']:.3f}, {deltas})")
+    if within:
+        names = " and ".join(r["config"] for r in within)
+        values = ", ".join(f"{r['mean']:.3f}" for r in within)
+        if parts:
+            verb = "is" if len(within) == 1 else "are"
+            parts.append(f"{names} {verb} within it ({values})")
+        else:
+            parts.append(f"no config differs from {baseline} ({base['mean']:.3f}) beyond the "
+                         f"seed spread: {names} score {values}")
+    return "; ".join(parts) + "."
+
+
+def report(results: dict, baseline: str, metric: str = "iou@0.3",
+           out: Callable[[str], object] = print) -> list[dict]:
+    """Print a study's table, each config against ``baseline``, and its cost; return the rows.
+
+    The table is :func:`~e2vlib.experiments.format_summary`; each comparison gives the
+    difference, Welch's p-value and the verdict of :func:`is_real_difference`; the last line
+    says how many runs, their minutes of training and the CPU they were recorded on.
+    """
+    rows = experiments.summarize(results, metric)
+    out(experiments.format_summary(rows, metric))
+    for d in experiments.compare(rows, baseline):
+        verdict = "beyond the seed spread" if d["clear"] else "within the seed spread"
+        out(f"  {d['config']:13s} {d['difference']:+.3f} vs {baseline} "
+            f"(Welch p = {d['p_value']:.2f}): {verdict}")
+    minutes = minutes_per_run(results)
+    if minutes:
+        spread = ", ".join(f"{c} {m:.1f}" for c, m in minutes.items())
+        out(f"  {len(results['runs'])} runs; minutes of training per run: {spread}; recorded on "
+            f"{recorded_on(results)}")
+    if results.get("command"):
+        out(f"  command: {results['command']}")
+    return rows
+
+
+# ----------------------------------------------------------------------------- bench figures
+
+
+def bench_section(title: str, path: str | os.PathLike | None = None) -> str:
+    """The text of the ``## title`` section of ``bench/RESULTS.md`` (heading left out).
+
+    ``title`` matches the start of a section heading. Raises ``KeyError`` listing the
+    sections when none matches.
+    """
+    text = Path(path if path is not None else BENCH_RESULTS).read_text()
+    sections = re.split(r"^## ", text, flags=re.MULTILINE)[1:]
+    for section in sections:
+        heading, _, body = section.partition("\n")
+        if heading.strip().startswith(title):
+            return body.strip()
+    names = [s.partition("\n")[0].strip() for s in sections]
+    raise KeyError(f"no section {title!r} in bench/RESULTS.md; sections: {names}")
+
+
+def bench_machine(title: str, path: str | os.PathLike | None = None) -> str:
+    """The ``Machine:`` line of a bench section (the CPU its figures were measured on)."""
+    match = re.search(r"Machine: ([^\n]*?)(?:, Python|\.\s*$|\n)", bench_section(title, path))
+    return match.group(1).strip() if match else "unknown machine"
+
+
+def bench_table(title: str, path: str | os.PathLike | None = None, index: int = 0) -> list[dict]:
+    """The ``index``-th markdown table of a bench section as ``[{column: cell}]`` (text cells,
+    ``**`` and backticks stripped)."""
+    tables, current = [], []
+    for line in bench_section(title, path).splitlines() + [""]:
+        if line.startswith("|"):
+            cells = line.strip().strip("|").split("|")
+            current.append([cell.strip().strip("*`").strip() for cell in cells])
+        elif current:
+            tables.append(current)
+            current = []
+    if index >= len(tables):
+        raise KeyError(f"section {title!r} of bench/RESULTS.md has {len(tables)} tables")
+    header, _, *body = tables[index]
+    return [dict(zip(header, row, strict=False)) for row in body]
+
+
+def lesson_minutes(path: str | os.PathLike | None = None) -> dict[str, tuple[float, float]]:
+    """``{notebook: (quick minutes, full minutes)}`` from the "Lessons" bench table."""
+
+    def minutes(cell: str) -> float:
+        value, unit = cell.split()
+        return float(value) / 60 if unit == "s" else float(value)
+
+    return {row["notebook"]: (minutes(row["quick"]), minutes(row["full"]))
+            for row in bench_table("Lessons", path) if row["notebook"].endswith(".ipynb")}

@@ -1,0 +1,9 @@
+"""A plausible wrong answer for every exercise, kept out of the lessons.
+
+``lesson_NN.py`` holds ``WRONG = {exercise number: source code}`` for lesson NN. Each wrong
+answer is a mistake a student could make (an off-by-one window, the wrong axis, a typed
+value instead of a computed one, a config left out), not the stub: it runs without error
+and defines the names the check reads, and the check must then fail with an AssertionError.
+``tests/test_exercises.py`` runs each lesson once with every wrong answer (followed by its
+check) placed before the real solution.
+"""
