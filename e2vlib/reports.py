@@ -98,10 +98,22 @@ def minutes_per_run(results: dict) -> dict[str, float]:
     return {config: float(np.mean(values)) for config, values in minutes.items()}
 
 
+UNNAMED_CPU = "a CPU the record does not name"
+
+
 def recorded_on(results: dict) -> str:
-    """Where the runs trained: the CPU model names (or device) in the records, joined."""
-    names = sorted({run.get("cpu") or run.get("device", "unknown") for run in results["runs"]})
-    return " and ".join(names)
+    """Where the runs trained: the CPU model names in the records (a GPU run names its
+    device), joined; runs recorded before records named their CPU say so."""
+    names = set()
+    for run in results["runs"]:
+        device = run.get("device", "cpu")
+        names.add(run.get("cpu") or (UNNAMED_CPU if device == "cpu" else device))
+    return _join(sorted(names))
+
+
+def _join(words: list[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
 def finding(rows: list[dict], baseline: str, metric: str = "iou@0.3") -> str:
@@ -124,14 +136,14 @@ def finding(rows: list[dict], baseline: str, metric: str = "iou@0.3") -> str:
     parts = []
     for group, word in ((above, "above"), (below, "below")):
         if group:
-            names = " and ".join(r["config"] for r in group)
+            names = _join([r["config"] for r in group])
             values = ", ".join(f"{r['mean']:.3f}" for r in group)
             deltas = ", ".join(f"{r['mean'] - base['mean']:+.3f}" for r in group)
             verb = "is" if len(group) == 1 else "are"
             parts.append(f"{names} {verb} {word} {baseline} beyond the seed spread "
                          f"({values} against {base['mean']:.3f}, {deltas})")
     if within:
-        names = " and ".join(r["config"] for r in within)
+        names = _join([r["config"] for r in within])
         values = ", ".join(f"{r['mean']:.3f}" for r in within)
         if parts:
             verb = "is" if len(within) == 1 else "are"
@@ -193,12 +205,12 @@ def bench_machine(title: str, path: str | os.PathLike | None = None) -> str:
 
 def bench_table(title: str, path: str | os.PathLike | None = None, index: int = 0) -> list[dict]:
     """The ``index``-th markdown table of a bench section as ``[{column: cell}]`` (text cells,
-    ``**`` and backticks stripped)."""
+    with ``**`` and backticks removed)."""
     tables, current = [], []
     for line in bench_section(title, path).splitlines() + [""]:
         if line.startswith("|"):
             cells = line.strip().strip("|").split("|")
-            current.append([cell.strip().strip("*`").strip() for cell in cells])
+            current.append([cell.replace("**", "").replace("`", "").strip() for cell in cells])
         elif current:
             tables.append(current)
             current = []

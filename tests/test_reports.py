@@ -60,6 +60,18 @@ def test_finding_states_the_result_in_one_sentence():
     assert tie == "no config differs from base (0.410) beyond the seed spread: same score 0.410."
     with pytest.raises(ValueError, match="no config 'x'"):
         reports.finding(rows, "x")
+    three = experiments.summarize(_results({"b": [0.4, 0.41, 0.42], "x": [0.4, 0.41, 0.43],
+                                            "y": [0.4, 0.42, 0.43], "z": [0.41, 0.42, 0.43]}))
+    assert reports.finding(three, "b").startswith("no config differs from b (0.410) beyond the "
+                                                  "seed spread: x, y and z score ")
+
+
+def test_recorded_on_names_cpus_and_says_when_a_record_does_not():
+    results = _results({"a": [0.4, 0.5]})
+    assert reports.recorded_on(results) == "Test CPU"
+    del results["runs"][0]["cpu"]
+    results["runs"][0]["device"] = "cpu"
+    assert reports.recorded_on(results) == "Test CPU and a CPU the record does not name"
 
 
 def test_report_prints_table_verdicts_minutes_and_cpu():
@@ -78,11 +90,13 @@ def test_bench_tables_and_lesson_minutes(tmp_path):
     page = tmp_path / "RESULTS.md"
     page.write_text("# Bench\n\n## Lessons\n\nCommand: x. Machine: Toy CPU, 2 cores, Python 3.11."
                     "\n\n| notebook | quick | full |\n| --- | --- | --- |\n"
-                    "| `00_a.ipynb` | 30 s | 2.5 min |\n| **all** | **30 s** | **2.5 min** |\n\n"
+                    "| `00_a.ipynb` | 30 s | 2.5 min |\n| `x` (y) | 1 s | 2 s |\n"
+                    "| **all** | **30 s** | **2.5 min** |\n\n"
                     "## Other\n\ntext\n")
     assert reports.bench_machine("Lessons", page) == "Toy CPU, 2 cores"
     assert reports.bench_table("Lessons", page)[0] == {"notebook": "00_a.ipynb", "quick": "30 s",
                                                        "full": "2.5 min"}
+    assert reports.bench_table("Lessons", page)[1]["notebook"] == "x (y)"
     assert reports.lesson_minutes(page) == {"00_a.ipynb": (0.5, 2.5)}
     assert reports.bench_section("Other", page) == "text"
     with pytest.raises(KeyError, match="sections: \\['Lessons', 'Other'\\]"):

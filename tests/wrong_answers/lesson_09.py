@@ -1,0 +1,32 @@
+"""Wrong answers for lesson 09 (see tests/wrong_answers/__init__.py)."""
+
+WRONG = {
+    # x and y swapped: pixel (x=3, y=1) put in row 1, column 0
+    1: """answer_1 = [[[1, 0], [1, 0]],
+            [[0, 0], [1, 0]]]
+""",
+    # the window length left at 5 ms for every N: 10 frames cover 50 ms, 200 frames run past 0.5 s
+    2: """answer_2 = {n: float(inputs.events_to_input(events, sensor_size, "binary",
+                                               n_frames=n).mean())
+            for n in (10, 100, 200)}
+""",
+    # population standard deviation (ddof=0) instead of the sample one
+    3: """values = np.array([0.47, 0.50, 0.44])
+half = 4.303 * values.std() / np.sqrt(3)
+answer_3 = (values.mean() - half, values.mean() + half)
+""",
+    # the runs are made, but the answer copies the recorded study's means instead of the measurement
+    4: """experiments.run_study("time", ["10x50ms", "100x5ms"], seeds=[0], out=live / "results",
+                      quick=True, progress=False, base_overrides=overrides)
+answer_4 = {c: by_name[c]["mean"] for c in ("10x50ms", "100x5ms")}
+""",
+    # "different" read as "a higher mean", and the normal quantile 1.96 in place of Student's t
+    5: """answer_5 = sorted(r["config"] for r in rows if r["mean"] > base["mean"])
+_m = {c: np.mean([r["metrics"]["iou@0.3"] for r in reports.runs_of(results, c)])
+      for c in ("voxel_grid", "binary")}
+_s = {c: np.std([r["metrics"]["iou@0.3"] for r in reports.runs_of(results, c)], ddof=1)
+      for c in ("voxel_grid", "binary")}
+seeds_5 = next(n for n in range(2, 1000) if _m["voxel_grid"] - 1.96 * _s["voxel_grid"] / np.sqrt(n)
+               > _m["binary"] + 1.96 * _s["binary"] / np.sqrt(n))
+""",
+}
