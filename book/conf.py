@@ -1,0 +1,82 @@
+"""Sphinx configuration of the e2v notebooks book (``make book``; see book/README.md).
+
+The source folder is the repository root (``sphinx-build -c book . build/book``), so the
+lessons are read where they live (``notebooks/*.ipynb``) and run from there, finding
+``../data_small`` as in JupyterLab. Pages generated from the library (the README with its
+figures, the lesson map, the paper's facts) are written to ``book/_generated/`` first.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "book"))
+
+from pages import write_pages  # noqa: E402
+
+QUICK = os.environ.get("E2V_QUICK") == "1"
+os.environ["PYVISTA_JUPYTER_BACKEND"] = "static"  # 3D views as pictures in the page
+os.environ.setdefault("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+write_pages(ROOT / "book" / "_generated", quick=QUICK)
+
+project = "e2v notebooks"
+author = "the e2v notebooks authors"
+copyright = "2026, the e2v notebooks authors; code MIT, lessons and figures CC BY 4.0"
+root_doc = "book/index"
+extensions = ["myst_nb"]
+include_patterns = ["book/index.md", "book/_generated/*.md", "notebooks/[0-9][0-9]_*.ipynb"]
+exclude_patterns = ["build", ".venv", "**/.ipynb_checkpoints"]
+myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "html_image"]
+myst_heading_anchors = 3
+suppress_warnings = ["myst.header", "misc.highlighting_failure"]
+
+# Execution: every lesson runs in a fresh kernel from notebooks/; jupyter-cache keeps the outputs
+# of a lesson whose code is unchanged, so a rebuild runs only the lessons that changed. The cache
+# of the quick build is kept apart from the full one.
+nb_execution_mode = "cache"
+CACHE = "jupyter_cache_quick" if QUICK else "jupyter_cache"
+nb_execution_cache_path = str(ROOT / "build" / CACHE)
+nb_execution_timeout = 1800
+nb_execution_raise_on_error = True  # any cell error fails the build
+nb_execution_show_tb = True  # with the lesson, the cell and its traceback on stderr
+nb_merge_streams = True
+nb_output_stderr = "remove"  # progress bars' stderr lines; their widget view stays
+nb_mime_priority_overrides = [("html", "application/vnd.jupyter.widget-view+json", None)]
+
+html_theme = "sphinx_book_theme"
+html_title = "e2v notebooks" + (" (quick build)" if QUICK else "")
+html_theme_options = {
+    "show_toc_level": 2,
+    "use_download_button": True,
+    "home_page_in_toc": True,
+    "navigation_with_keys": False,
+}
+html_context = {"default_mode": "light"}  # no console error about an unset mode
+html_static_path = []
+html_extra_path = ["extra"]
+html_last_updated_fmt = None
+html_show_sourcelink = False
+
+
+def fold_solutions(app, docname: str, source: list[str]) -> None:
+    """Fold every exercise solution (cells tagged ``solution``) behind "Show code cell
+    content": a student opens it on purpose. The notebooks themselves stay as they are."""
+    import json
+
+    if not docname.startswith("notebooks/"):
+        return
+    nb = json.loads(source[0])
+    for cell in nb["cells"]:
+        tags = cell.setdefault("metadata", {}).setdefault("tags", [])
+        if "solution" in tags and "hide-cell" not in tags:
+            tags.append("hide-cell")
+    source[0] = json.dumps(nb)
+
+
+def setup(app):
+    app.connect("source-read", fold_solutions)
+    return {"parallel_read_safe": True}

@@ -1,0 +1,163 @@
+"""The lesson map: each lesson's prerequisites and measured minutes, read from its header.
+
+Every lesson's first cell carries two lines under its goals::
+
+    **Prerequisites:** lessons 00, 02 (or: none)
+    **Time:** 12 s in quick mode, 2.6 min in full mode (bench/RESULTS.md, "Lessons")
+
+The prerequisites live only there; the times are copied from the "Lessons" table of
+``bench/RESULTS.md`` (written by ``bench/bench_notebooks.py``), and
+``tests/test_lesson_map.py`` checks that every header agrees with that table and that the
+prerequisites form no cycle. ``python tools/lesson_map.py --write`` rewrites the headers'
+time lines from the table after a benchmark run. The book's map page is drawn from here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+import nbformat
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = ROOT / "notebooks"
+PREREQUISITES = re.compile(r"^\*\*Prerequisites:\*\*\s*(.+?)\s*$", re.MULTILINE)
+TIME = re.compile(r"^\*\*Time:\*\*\s*(.+?) in quick mode, (.+?) in full mode\b.*$",
+                  re.MULTILINE)
+
+
+def lessons() -> list[Path]:
+    return sorted(NOTEBOOKS.glob("[0-9][0-9]_*.ipynb"))
+
+
+def time_line(quick: str, full: str) -> str:
+    return f'**Time:** {quick} in quick mode, {full} in full mode (bench/RESULTS.md, "Lessons")'
+
+
+def header(path: Path) -> dict:
+    """``{"number", "name", "title", "goals", "prerequisites", "quick", "full"}`` of a lesson."""
+    first = nbformat.read(path, as_version=4).cells[0].source
+    title = first.splitlines()[0].lstrip("# ").strip()
+    found = PREREQUISITES.search(first)
+    if found is None:
+        raise ValueError(f"{path.name}: its first cell has no '**Prerequisites:**' line")
+    text = found.group(1).rstrip(".")
+    prerequisites = [] if text.lower() == "none" else re.findall(r"\b(\d\d)\b", text)
+    time = TIME.search(first)
+    if time is None:
+        raise ValueError(f"{path.name}: its first cell has no '**Time:** ... in quick mode, ... "
+                         "in full mode' line")
+    goals = [line[2:].strip() for line in first.split("In this notebook you will", 1)[-1]
+             .splitlines() if line.startswith("- ")]
+    return {"number": path.name[:2], "name": path.name, "title": title, "goals": goals,
+            "prerequisites": prerequisites, "quick": time.group(1), "full": time.group(2)}
+
+
+def find_cycle(graph: dict[str, list[str]]) -> list[str] | None:
+    """A cycle of ``graph`` ({node: [nodes it needs]}) as a list of nodes, or None."""
+    state: dict[str, int] = {}
+    path: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        path.append(node)
+        for need in graph.get(node, []):
+            if state.get(need) == 1:
+                return path[path.index(need):] + [need]
+            if need not in state and (cycle := visit(need)):
+                return cycle
+        state[node] = 2
+        path.pop()
+        return None
+
+    for node in graph:
+        if node not in state and (cycle := visit(node)):
+            return cycle
+    return None
+
+
+def draw_graph(headers: list[dict], path: Path) -> Path:
+    """Draw the prerequisite graph (lessons as boxes in rows by depth, arrows from each
+    prerequisite) to a PNG at ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    by_number = {h["number"]: h for h in headers}
+    depth: dict[str, int] = {}
+
+    def depth_of(n: str) -> int:
+        if n not in depth:
+            depth[n] = 1 + max((depth_of(p) for p in by_number[n]["prerequisites"]), default=-1)
+        return depth[n]
+
+    rows: dict[int, list[str]] = {}
+    for h in headers:
+        rows.setdefault(depth_of(h["number"]), []).append(h["number"])
+    width = max(len(r) for r in rows.values())
+    position = {n: ((i + 0.5) * width / len(r), -d) for d, r in rows.items() for i, n in
+                enumerate(r)}
+    fig, ax = plt.subplots(figsize=(2.1 * width + 1, 1.25 * len(rows) + 0.5))
+    for h in headers:
+        for p in h["prerequisites"]:
+            ax.annotate("", xy=position[h["number"]], xytext=position[p],
+                        arrowprops={"arrowstyle": "-|>", "color": "#555555", "lw": 1,
+                                    "shrinkA": 16, "shrinkB": 16})
+    for n, (x, y) in position.items():
+        label = by_number[n]["title"].split("·", 1)[-1].split(":")[0].strip()
+        ax.text(x, y, f"{n}\n{label}", ha="center", va="center", fontsize=8,
+                bbox={"boxstyle": "round,pad=0.4", "facecolor": "#dbe6f4",
+                      "edgecolor": "#31567f"})
+    ax.set_xlim(-0.2, width + 0.2)
+    ax.set_ylim(-len(rows) + 0.5, 0.5)
+    ax.axis("off")
+    ax.set_title("Lessons and their prerequisites (an arrow points from a prerequisite)",
+                 fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def write_time_lines(minutes: dict[str, tuple[str, str]]) -> list[str]:
+    """Rewrite every lesson header's time line from ``{notebook: (quick, full)}``."""
+    changed = []
+    for path in lessons():
+        nb = nbformat.read(path, as_version=4)
+        quick, full = minutes[path.name]
+        new = TIME.sub(time_line(quick, full), nb.cells[0].source)
+        if new != nb.cells[0].source:
+            nb.cells[0].source = new
+            nbformat.write(nb, path)
+            changed.append(path.name)
+    return changed
+
+
+def bench_times() -> dict[str, tuple[str, str]]:
+    """``{notebook: (quick, full)}`` cells of the "Lessons" table of bench/RESULTS.md."""
+    sys.path.insert(0, str(ROOT))
+    from e2vlib.reports import bench_table
+
+    return {row["notebook"]: (row["quick"], row["full"]) for row in bench_table("Lessons")
+            if row["notebook"].endswith(".ipynb")}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--write", action="store_true",
+                        help="rewrite the headers' time lines from bench/RESULTS.md")
+    args = parser.parse_args(argv)
+    if args.write:
+        print("updated:", write_time_lines(bench_times()) or "nothing")
+    for h in map(header, lessons()):
+        print(f"{h['number']}  needs {', '.join(h['prerequisites']) or '-':12s} "
+              f"{h['quick']:>8s} quick {h['full']:>8s} full  {h['title']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
