@@ -512,7 +512,8 @@ def view_reconstructions(truths, predictions, threshold: float = paper.IOU_THRES
     ``(R, R, R)`` or sequences/stacks of ``n`` grids; predictions are probabilities,
     drawn where ``>= threshold`` and coloured by value (one probability bar, in the last
     panel), each panel titled with its IoU at ``threshold``. With ``link`` all ``2 n``
-    views share one camera: turning one turns all. Returns the plotter with ``shape == (2, n)`` (not shown).
+    views share one camera: turning one turns all. Returns the plotter with
+    ``shape == (2, n)`` (not shown).
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
     """
     from e2vlib.metrics import iou
