@@ -189,7 +189,14 @@ def _draw(view: dict, events, sensor_size, voxels, probs, threshold, picks, max_
         ax.set_title(f"{k * view['dt_ms']:.0f} ms", fontsize=8)
         ax.set_xticks([])
         ax.set_yticks([])
-    bottom.subplots_adjust(left=0.02, right=0.98, bottom=0.02, top=0.82, wspace=0.08)
+    # Pixel axes on the first frame (all frames share them).
+    height, width = np.shape(view["frames"][0])[:2]
+    axes[0].set_xticks([0, width - 1])
+    axes[0].set_yticks([0, height - 1])
+    axes[0].tick_params(labelsize=6, length=2, pad=1)
+    axes[0].set_xlabel("x [px]", fontsize=7, labelpad=0)
+    axes[0].set_ylabel("y [px]", fontsize=7, labelpad=0)
+    bottom.subplots_adjust(left=0.035, right=0.98, bottom=0.13, top=0.82, wspace=0.08)
     fig.suptitle(f"{view['id']}: events, label and prediction; below, {len(picks)} of "
                  f"{view['n_frames']} binary frames of {view['dt_ms']:g} ms", fontsize=11)
     return fig
