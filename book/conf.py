@@ -21,7 +21,7 @@ from pages import write_pages  # noqa: E402
 QUICK = os.environ.get("E2V_QUICK") == "1"
 os.environ["PYVISTA_JUPYTER_BACKEND"] = "static"  # 3D views as pictures in the page
 os.environ.setdefault("MPLBACKEND", "module://matplotlib_inline.backend_inline")
-write_pages(ROOT / "book" / "_generated", quick=QUICK)
+write_pages(ROOT / "book" / "_generated")
 
 project = "e2v notebooks"
 author = "the e2v notebooks authors"

@@ -112,7 +112,7 @@ The collection itself: see `CITATION.cff` in the repository.
 """
 
 
-def write_pages(out: Path, quick: bool = False) -> None:
+def write_pages(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     _write(out / "readme.md", readme_page())
     _write(out / "map.md", map_page(out))

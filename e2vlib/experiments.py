@@ -826,11 +826,21 @@ def plot_summary(rows: list[dict], ax=None, metric: str = "iou@0.3",
     return ax
 
 
+def is_real_difference(row: dict, base: dict) -> bool:
+    """True when the 95 % intervals of two :func:`summarize` rows do not overlap (the one
+    rule every study lesson uses for "a real difference"); False when either has one seed."""
+    low, high = row["ci95"]
+    base_low, base_high = base["ci95"]
+    if not all(np.isfinite([low, high, base_low, base_high])):
+        return False
+    return bool(low > base_high or high < base_low)
+
+
 def compare(rows: list[dict], baseline: str) -> list[dict]:
     """Each config's difference from ``baseline``, with Welch's t-test p-value over seeds.
 
-    Returns ``[{"config", "difference", "p_value", "clear"}]`` where ``clear`` means the
-    95 % intervals of the two configs do not overlap (a conservative reading with 3 seeds).
+    Returns ``[{"config", "difference", "p_value", "clear"}]`` where ``clear`` is
+    :func:`is_real_difference` (a conservative reading with 3 seeds).
     """
     from scipy import stats
 
@@ -843,7 +853,6 @@ def compare(rows: list[dict], baseline: str) -> list[dict]:
             continue
         p = (float(stats.ttest_ind(row["values"], base["values"], equal_var=False).pvalue)
              if row["n"] > 1 and base["n"] > 1 else float("nan"))
-        clear = row["ci95"][0] > base["ci95"][1] or row["ci95"][1] < base["ci95"][0]
         out.append({"config": row["config"], "difference": row["mean"] - base["mean"],
-                    "p_value": p, "clear": bool(clear)})
+                    "p_value": p, "clear": is_real_difference(row, base)})
     return out

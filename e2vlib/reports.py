@@ -37,6 +37,11 @@ from pathlib import Path
 import numpy as np
 
 from . import experiments
+from .experiments import is_real_difference
+
+__all__ = ["MissingResultsError", "load_results", "is_real_difference", "runs_of",
+           "minutes_per_run", "recorded_on", "finding", "report", "bench_section",
+           "bench_machine", "bench_table", "lesson_minutes"]
 
 REPO = Path(__file__).resolve().parent.parent
 RESULTS_DIR = REPO / "experiments" / "results"
@@ -74,16 +79,6 @@ def load_results(study: str, root: str | os.PathLike | None = None) -> dict:
     return results
 
 
-def is_real_difference(row: dict, base: dict) -> bool:
-    """True when the 95 % intervals of two :func:`~e2vlib.experiments.summarize` rows do not
-    overlap (the one rule every study lesson uses); False when either has one seed."""
-    low, high = row["ci95"]
-    base_low, base_high = base["ci95"]
-    if not all(np.isfinite([low, high, base_low, base_high])):
-        return False
-    return bool(low > base_high or high < base_low)
-
-
 def runs_of(results: dict, config: str) -> list[dict]:
     """The recorded runs of one config, in file order."""
     return [run for run in results["runs"] if run.get("config") == config]
@@ -101,11 +96,11 @@ def minutes_per_run(results: dict) -> dict[str, float]:
 UNNAMED_CPU = "a CPU the record does not name"
 
 
-def recorded_on(results: dict) -> str:
-    """Where the runs trained: the CPU model names in the records (a GPU run names its
-    device), joined; runs recorded before records named their CPU say so."""
+def recorded_on(results: dict, config: str | None = None) -> str:
+    """Where the runs (of ``config``, default all) trained: the CPU model names in the
+    records (a GPU run names its device), joined; runs whose record names no CPU say so."""
     names = set()
-    for run in results["runs"]:
+    for run in results["runs"] if config is None else runs_of(results, config):
         device = run.get("device", "cpu")
         names.add(run.get("cpu") or (UNNAMED_CPU if device == "cpu" else device))
     return _join(sorted(names))

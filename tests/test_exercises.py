@@ -3,6 +3,7 @@ fail without the solutions."""
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 
@@ -113,12 +114,7 @@ def test_every_check_fails_on_a_plausible_wrong_answer(path):
             where = "the wrong answer" if index + 1 in probes else f"cell {index}"
             assert not errors, (f"{path.name}: {where} fails: {errors[0].ename}: "
                                 f"{errors[0].evalue}" if errors else "")
-        text = json_text(cell.outputs)
+        text = json.dumps([dict(o) for o in cell.outputs])
         for phrase in OUTPUT_PROCESS_TEXT:
             assert phrase not in text, f"{path.name} cell {index} prints {phrase!r}"
 
-
-def json_text(outputs) -> str:
-    import json
-
-    return json.dumps([dict(o) for o in outputs])
