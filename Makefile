@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static
 
-.PHONY: venv lab test unit notebooks browser lint format bench data figures strip student clean
+.PHONY: venv lab test unit notebooks browser book book-check lint format bench data figures strip student clean
 
 venv: $(STAMP)
 
@@ -40,6 +40,26 @@ $(BROWSER_STAMP): environment/browser-requirements.txt $(STAMP)
 
 browser: $(BROWSER_STAMP)
 	$(PY) tests/browser/run_lab.py $(BROWSER_ARGS)
+
+# The book: every lesson executed (full mode; `make book QUICK=1` for quick mode, as CI builds it)
+# and rendered with Sphinx + MyST-NB to build/book/ (open build/book/index.html). jupyter-cache
+# (build/jupyter_cache, build/jupyter_cache_quick) re-runs only the lessons whose code changed;
+# any cell error fails the build with the lesson and the cell named. `make book-check` opens
+# every page in headless Chromium (tests/browser/check_book.py); BOOK_CHECK_ARGS="--figures
+# docs/figures" also renews the README's screenshots of the book.
+BOOK_STAMP := $(VENV)/.book-installed
+BOOK_MODE := $(if $(filter 1,$(QUICK)),quick,full)
+
+$(BOOK_STAMP): environment/book-requirements.txt $(STAMP)
+	$(PY) -m pip install -r environment/book-requirements.txt
+	touch $(BOOK_STAMP)
+
+book: $(BOOK_STAMP)
+	$(if $(filter 1,$(QUICK)),E2V_QUICK=1) $(VENV)/bin/sphinx-build -b html -c book \
+	  -d build/book-doctrees-$(BOOK_MODE) . build/book
+
+book-check: $(BROWSER_STAMP)
+	$(PY) tests/browser/check_book.py $(BOOK_CHECK_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -57,6 +57,7 @@ html_theme_options = {
 }
 html_context = {"default_mode": "light"}  # no console error about an unset mode
 html_static_path = []
+mathjax_path = "mathjax/tex-chtml.js"  # served from the site itself: no CDN at read time
 html_extra_path = ["extra"]
 html_last_updated_fmt = None
 html_show_sourcelink = False
@@ -77,6 +78,27 @@ def fold_solutions(app, docname: str, source: list[str]) -> None:
     source[0] = json.dumps(nb)
 
 
+def copy_mathjax(app, error) -> None:
+    """Copy MathJax (from the pinned ``sphinx-mathjax-offline`` wheel) into ``_static/mathjax``:
+    the TeX-to-HTML component with what it loads on demand (TeX extensions, the CHTML fonts,
+    the menu and the accessibility tools), not the other combined builds."""
+    import importlib.util
+    import shutil
+
+    if error is not None:
+        return
+    spec = importlib.util.find_spec("sphinx-mathjax-offline")
+    if spec is None or spec.origin is None:
+        raise RuntimeError("MathJax is missing: pip install -r environment/book-requirements.txt")
+    source = Path(spec.origin).parent / "static" / "mathjax"
+    target = Path(app.outdir) / "_static" / "mathjax"
+    target.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(source / "tex-chtml.js", target / "tex-chtml.js")
+    for part in ("input", "output/chtml", "a11y", "sre", "ui", "adaptors"):
+        shutil.copytree(source / part, target / part, dirs_exist_ok=True)
+
+
 def setup(app):
     app.connect("source-read", fold_solutions)
+    app.connect("build-finished", copy_mathjax)
     return {"parallel_read_safe": True}

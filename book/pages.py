@@ -1,7 +1,8 @@
 """Pages of the book generated from the repository: the README, the lesson map, the paper.
 
-``write_pages(out)`` writes ``readme.md``, ``map.md`` (with ``lesson_graph.png``) and
-``paper.md`` to ``out`` (``book/_generated/``, git-ignored). Nothing here is typed twice: the
+``write_pages(out)`` writes ``readme.md``, ``map.md`` (with ``lesson_graph.png``),
+``paper.md`` and ``live.inc`` (the front page's table of live-class times, included by
+``book/index.md``) to ``out`` (``book/_generated/``, git-ignored). Nothing here is typed twice: the
 README is converted, the map is read from the lesson headers and bench/RESULTS.md
 (``tools/lesson_map.py``), the paper's facts from ``e2vlib.paper``.
 """
@@ -41,13 +42,37 @@ def readme_page() -> str:
     return text
 
 
-def map_page(out: Path) -> str:
-    from lesson_map import draw_graph, find_cycle, header, lessons
+def _headers() -> list[dict]:
+    from lesson_map import find_cycle, header, lessons
 
     headers = [header(p) for p in lessons()]
     cycle = find_cycle({h["number"]: h["prerequisites"] for h in headers})
     if cycle:
         raise ValueError(f"the lessons' prerequisites form a cycle: {' -> '.join(cycle)}")
+    return headers
+
+
+def live_page() -> str:
+    """The front page's table: each lesson's live-class estimate and how it is made."""
+    from lesson_map import MINUTES_PER_EXERCISE, READING_WORDS_PER_MINUTE, live_minutes
+
+    headers = _headers()
+    rows = ["| lesson | words to read | exercises | run (full mode) | live class, about |",
+            "| --- | --- | --- | --- | --- |"]
+    for h in headers:
+        rows.append(f"| [{h['title']}](../notebooks/{h['name']}) | {h['words']:,} | "
+                    f"{h['exercises']} | {h['full']} | {live_minutes(h):.0f} min |")
+    total = sum(live_minutes(h) for h in headers)
+    return (f"{chr(10).join(rows)}\n\nA live class is our estimate, not a measurement: reading "
+            f"at {READING_WORDS_PER_MINUTE} words a minute, the full-mode run of the \"Lessons\" "
+            f"table of `bench/RESULTS.md`, and {MINUTES_PER_EXERCISE} minutes per exercise; all "
+            f"{len(headers)} lessons come to about {total / 60:.1f} hours.\n")
+
+
+def map_page(out: Path) -> str:
+    from lesson_map import draw_graph
+
+    headers = _headers()
     draw_graph(headers, out / "lesson_graph.png")
     rows = ["| lesson | prerequisites | quick mode | full mode | you will |",
             "| --- | --- | --- | --- | --- |"]
@@ -62,7 +87,7 @@ Every lesson runs on its own (each loads what it needs from `data_small/`, inclu
 checkpoint); the arrows say which lessons explain what a later one builds on. The times are
 measured wall times of a whole run, kernel start included, in quick mode (`E2V_QUICK=1`, what CI
 runs) and in full mode (a student's run), from the "Lessons" table of `bench/RESULTS.md`; a live
-class takes longer, for reading and the exercises.
+class takes longer, for reading and the exercises (the front page estimates how much).
 
 ```{{figure}} lesson_graph.png
 :alt: The lessons as boxes in rows, with arrows from each prerequisite to the lessons that
@@ -116,4 +141,5 @@ def write_pages(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     _write(out / "readme.md", readme_page())
     _write(out / "map.md", map_page(out))
+    _write(out / "live.inc", live_page())
     _write(out / "paper.md", paper_page())

@@ -9,7 +9,10 @@ compose their own scenes from the same parts: :func:`new_plotter`, :func:`add_vo
 :func:`aim_at_object`. :func:`interactive_figure` puts widgets on a matplotlib picture
 that also shows (at its current values) where no widget can run.
 :func:`export_reconstruction` writes a prediction for other tools.
-Colours: ON events red, OFF events blue throughout the lessons.
+Colours: ON events orange and OFF events blue (:data:`ON_COLOR`, :data:`OFF_COLOR`, the
+Okabe-Ito pair, distinct for every common colour-vision deficiency and, being light against
+dark, in grey print); signed ON - OFF images use :data:`POLARITY_CMAP` (blue, white, orange);
+probabilities use viridis (its lightness rises monotonically, so grey print keeps the order).
 
 This module draws what it is given; it never reads datasets or runs models (the README's
 pictures, which do both, live in :mod:`e2vlib.figures`).
@@ -27,6 +30,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
+from matplotlib.colors import LinearSegmentedColormap
 
 from e2vlib import paper
 from e2vlib.events import check_sensor_size, validate
@@ -34,7 +38,10 @@ from e2vlib.frames import accumulate
 from e2vlib.render import headless_opengl_window  # re-exported: lessons call viz.*
 
 _WASM_OVERRIDE = "VTK_WASM_DIR_OVERRIDE"
-ON_COLOR, OFF_COLOR = "#d62728", "#1f77b4"
+ON_COLOR, OFF_COLOR = "#e69f00", "#0072b2"  # Okabe-Ito orange and blue
+POLARITY_CMAP = LinearSegmentedColormap.from_list("e2v_polarity", [OFF_COLOR, "#ffffff", ON_COLOR])
+"""Signed ON - OFF counts: OFF blue (dark in grey), zero white, ON orange (mid grey)."""
+PROBABILITY_CMAP = "viridis"
 
 
 def _subsample(events: np.ndarray, max_events: int, seed: int = 0) -> np.ndarray:
@@ -54,7 +61,7 @@ def plot_events_3d(
 ):
     """3D space-time scatter: x across, time (ms from the first event) in depth, y up.
 
-    ON events red, OFF blue; at most ``max_events`` points are drawn (a random subset).
+    ON events orange, OFF blue; at most ``max_events`` points are drawn (a random subset).
     ``y`` is flipped so the picture is upright like the camera image. Returns the axes.
     Introduced in notebooks/01_events.ipynb.
     """
@@ -237,7 +244,7 @@ def plot_reconstruction(probabilities: np.ndarray, voxels: np.ndarray | None = N
     if voxels is not None:
         label += f", IoU {iou(probabilities, voxels, threshold):.2f}"
     plot_voxels(probabilities, fig.add_subplot(1, n, n, projection="3d"), threshold=threshold,
-                colormap="viridis", title=label)
+                colormap=PROBABILITY_CMAP, title=label)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
@@ -401,7 +408,7 @@ def event_cloud(events: np.ndarray, sensor_size: tuple[int, int], max_events: in
 def view_events(events: np.ndarray, sensor_size: tuple[int, int], max_events: int = 100_000,
                 point_size: float = 2.0, off_screen: bool | None = None,
                 window_size=(900, 600)):
-    """3D scene of events in space-time: x across, time in depth, y up; ON red, OFF blue.
+    """3D scene of events in space-time: x across, time in depth, y up; ON orange, OFF blue.
 
     The pyvista twin of :func:`plot_events_3d` (rotate it with the mouse in JupyterLab).
     The axes show pixels and milliseconds. Returns the plotter (not shown).
@@ -483,7 +490,7 @@ def view_voxels(grid: np.ndarray, threshold: float = 0.5, color=TRUTH_COLOR,
     """
     grid = np.asarray(grid, dtype=np.float32)
     if cmap == "auto":
-        cmap = None if _is_binary(grid) else "viridis"
+        cmap = None if _is_binary(grid) else PROBABILITY_CMAP
     plotter = new_plotter(off_screen, window_size)
     count = add_voxels(plotter, grid, threshold, color=color, cmap=cmap,
                        show_edges=show_edges)
@@ -534,7 +541,7 @@ def view_reconstructions(truths, predictions, threshold: float = paper.IOU_THRES
         plotter.add_text(f"{title}\nground truth" if title else "ground truth", font_size=9,
                          color="black")
         plotter.subplot(1, col)
-        add_voxels(plotter, pred, threshold, cmap="viridis", scalar_bar=col == n - 1)
+        add_voxels(plotter, pred, threshold, cmap=PROBABILITY_CMAP, scalar_bar=col == n - 1)
         plotter.add_text(f"prediction\nIoU@{threshold:g} = {float(iou(pred, gt, threshold)):.2f}",
                          font_size=9, color="black")
         aim_at_object(plotter, zoom=1.15)

@@ -3,7 +3,7 @@
 Every lesson's first cell carries two lines under its goals::
 
     **Prerequisites:** lessons 00, 02 (or: none)
-    **Time:** 12 s in quick mode, 2.6 min in full mode (bench/RESULTS.md, "Lessons")
+    **Run time:** 12 s in quick mode, 2.6 min in full mode (bench/RESULTS.md, "Lessons")
 
 The prerequisites live only there; the times are copied from the "Lessons" table of
 ``bench/RESULTS.md`` (written by ``bench/bench_notebooks.py``), and
@@ -24,8 +24,16 @@ import nbformat
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = ROOT / "notebooks"
 PREREQUISITES = re.compile(r"^\*\*Prerequisites:\*\*\s*(.+?)\s*$", re.MULTILINE)
-TIME = re.compile(r"^\*\*Time:\*\*\s*(.+?) in quick mode, (.+?) in full mode\b.*$",
+TIME = re.compile(r"^\*\*Run time:\*\*\s*(.+?) in quick mode, (.+?) in full mode\b.*$",
                   re.MULTILINE)
+
+
+# A live class's time is our estimate, not a measurement: reading the Markdown at
+# READING_WORDS_PER_MINUTE (a careful pace for technical text), the full-mode run, and
+# MINUTES_PER_EXERCISE for each exercise.
+READING_WORDS_PER_MINUTE = 120
+MINUTES_PER_EXERCISE = 5
+EXERCISE = re.compile(r"\s*#{2,4}\s*Exercise\s+\d")
 
 
 def lessons() -> list[Path]:
@@ -33,12 +41,13 @@ def lessons() -> list[Path]:
 
 
 def time_line(quick: str, full: str) -> str:
-    return f'**Time:** {quick} in quick mode, {full} in full mode (bench/RESULTS.md, "Lessons")'
+    return f'**Run time:** {quick} in quick mode, {full} in full mode (bench/RESULTS.md, "Lessons")'
 
 
 def header(path: Path) -> dict:
     """``{"number", "name", "title", "goals", "prerequisites", "quick", "full"}`` of a lesson."""
-    first = nbformat.read(path, as_version=4).cells[0].source
+    cells = nbformat.read(path, as_version=4).cells
+    first = cells[0].source
     title = first.splitlines()[0].lstrip("# ").strip()
     found = PREREQUISITES.search(first)
     if found is None:
@@ -47,12 +56,27 @@ def header(path: Path) -> dict:
     prerequisites = [] if text.lower() == "none" else re.findall(r"\b(\d\d)\b", text)
     time = TIME.search(first)
     if time is None:
-        raise ValueError(f"{path.name}: its first cell has no '**Time:** ... in quick mode, ... "
-                         "in full mode' line")
+        raise ValueError(f"{path.name}: its first cell has no '**Run time:** ... in quick "
+                         "mode, ... in full mode' line")
     goals = [line[2:].strip() for line in first.split("In this notebook you will", 1)[-1]
              .splitlines() if line.startswith("- ")]
+    markdown = [c.source for c in cells if c.cell_type == "markdown"]
     return {"number": path.name[:2], "name": path.name, "title": title, "goals": goals,
-            "prerequisites": prerequisites, "quick": time.group(1), "full": time.group(2)}
+            "prerequisites": prerequisites, "quick": time.group(1), "full": time.group(2),
+            "words": sum(len(text.split()) for text in markdown),
+            "exercises": sum(bool(EXERCISE.match(text)) for text in markdown)}
+
+
+def minutes(duration: str) -> float:
+    """``"91 s"`` -> 1.5167, ``"2.6 min"`` -> 2.6."""
+    value, unit = duration.split()
+    return float(value) / {"s": 60, "min": 1, "h": 1 / 60}[unit]
+
+
+def live_minutes(h: dict) -> float:
+    """Our estimate of a live class on lesson header ``h``: reading + full run + exercises."""
+    return (h["words"] / READING_WORDS_PER_MINUTE + minutes(h["full"])
+            + MINUTES_PER_EXERCISE * h["exercises"])
 
 
 def find_cycle(graph: dict[str, list[str]]) -> list[str] | None:
