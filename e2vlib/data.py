@@ -42,15 +42,47 @@ import torch
 from torch.utils.data import Dataset
 
 from e2vlib import paper
+from e2vlib.dataset_checks import (
+    MAX_FRAMES_PER_SAMPLE,
+    SPLITS,
+    DatasetError,
+    check_id,
+    inside,
+    read_config,
+    read_manifest_rows,
+    rebuild_hint,
+)
 from e2vlib.events import EventError
 from e2vlib.files import atomic_path
 from e2vlib.frames import WINDOWS, accumulate, downsample
 from e2vlib.io import save_events
 
-SPLITS = ("train", "val", "test")
 GREY_DIR = "grey"
 """Folder of a dataset holding the grey videos (``make-data --grey-video``)."""
 SPLIT_FRACTIONS = (0.8, 0.1, 0.1)  # the paper's 832 : 104 : 104 is 8 : 1 : 1
+
+
+MAX_PER_CATEGORY = 10_000
+"""Most objects per category a build plans (the paper's largest class has 3,057)."""
+MAX_RESOLUTION = 4096
+"""Largest render size in px (the paper renders 512)."""
+
+
+def _size_problems(config: BuildConfig) -> list[str]:
+    """The settings of ``config`` beyond the bounds a build can meet."""
+    problems = []
+    if config.per_category > MAX_PER_CATEGORY:
+        problems.append(f"per_category {config.per_category} is more than {MAX_PER_CATEGORY} "
+                        "(data.MAX_PER_CATEGORY; the paper's largest category has 3057): "
+                        "build at most that many objects per category")
+    if config.resolution > MAX_RESOLUTION:
+        problems.append(f"resolution {config.resolution} is more than {MAX_RESOLUTION} px "
+                        "(data.MAX_RESOLUTION; the paper renders 512)")
+    if config.n_frames * config.frame_size ** 2 > MAX_FRAMES_PER_SAMPLE:
+        problems.append(f"{config.n_frames} frames of {config.frame_size} px are more than "
+                        f"{MAX_FRAMES_PER_SAMPLE} values per sample "
+                        "(dataset_checks.MAX_FRAMES_PER_SAMPLE)")
+    return problems
 
 
 @dataclass(frozen=True)
@@ -143,6 +175,8 @@ class BuildConfig:
         if not problems and self.resolution % self.frame_size:
             problems.append(f"frame_size {self.frame_size} must divide resolution "
                             f"{self.resolution}")
+        if not problems:
+            problems += _size_problems(self)
         if problems:
             raise ValueError("; ".join(problems))
         if self.oversample is None:
@@ -194,6 +228,20 @@ def frame_settings(config: dict | None) -> dict | None:
         "windows": str(config.get("windows", "fixed")),
         "frame_size": int(config["frame_size"]) if "frame_size" in config else None,
     }
+
+
+def dataset_config(root: str | os.PathLike) -> dict:
+    """ROOT/config.json, checked (:func:`e2vlib.dataset_checks.read_config`; a full build
+    config also as :class:`BuildConfig`), with :func:`frame_settings` filled in. Raises
+    :class:`DatasetError` naming the file and the bad value."""
+    config = read_config(root)
+    if {"categories", "per_category"} <= set(config):
+        try:
+            BuildConfig.from_dict(config)
+        except (TypeError, ValueError) as err:
+            raise DatasetError(f"{Path(root) / 'config.json'}: invalid build settings "
+                               f"({err}); fix them or rebuild the dataset") from None
+    return {**config, **frame_settings(config)}
 
 
 @dataclass(frozen=True)
@@ -282,8 +330,17 @@ def events_to_model_input(events: np.ndarray, sensor_size: tuple[int, int],
 
     For recordings of any sensor size: the frames are centre-cropped to the largest
     square whose side is a multiple of ``frame_size`` and max-pooled down to it. Returns
-    uint8 ``(n_frames, frame_size, frame_size)``. Introduced in notebooks/07_evaluation.ipynb.
+    uint8 ``(n_frames, frame_size, frame_size)``. Fewer than ``n_frames`` events raise
+    EventError: some frames would be empty by construction, and the model would give a
+    confident-looking grid from next to no evidence. Introduced in
+    notebooks/07_evaluation.ipynb.
     """
+    if len(events) < n_frames:
+        raise EventError(f"{len(events)} event(s) cannot make the model's input: its "
+                         f"{n_frames} frames of {dt_us} us need at least {n_frames} events "
+                         "(one per frame; with fewer, frames are empty by construction and "
+                         "the model would answer from next to no evidence); give a recording "
+                         "of the whole orbit")
     width, height = sensor_size
     factor = min(width, height) // frame_size
     if factor < 1:
@@ -384,7 +441,8 @@ def load_grey_video(root: str | os.PathLike, sample_id: str) -> np.ndarray:
     if not config_path.is_file():
         raise FileNotFoundError(f"{config_path} not found: {root} is not a dataset made by "
                                 f"`python -m e2vlib make-data --out {root} --grey-video`")
-    stored = json.loads(config_path.read_text())
+    sample_id = check_id(sample_id, f"load_grey_video({str(root)!r}, ...)")
+    stored = read_config(root)
     if not stored.get("grey_video", False):
         try:
             command = make_data_command(
@@ -393,13 +451,14 @@ def load_grey_video(root: str | os.PathLike, sample_id: str) -> np.ndarray:
             command = "python -m e2vlib make-data --grey-video --out NEW_FOLDER ..."
         raise ValueError(f"{root} was built without --grey-video, so it stores no grey "
                          f"frames; build the same samples with them: `{command}`")
-    path = root / "grey" / f"{sample_id}.npz"
+    path = inside(root, root / GREY_DIR / f"{sample_id}.npz")
+    sample = inside(root, root / "samples" / f"{sample_id}.npz")
     if not path.is_file():
-        if not (root / "samples" / f"{sample_id}.npz").is_file():
+        if not sample.is_file():
             raise ValueError(f"{root} has no sample {sample_id!r}; ids are listed in "
                              f"{root / 'manifest.csv'}")
-        raise ValueError(f"{path} is missing; delete {root / 'samples' / (sample_id + '.npz')}"
-                         f" and finish the build with make-data --out {root} (resumable)")
+        raise ValueError(f"{path} is missing; delete {sample} and finish the build with "
+                         f"make-data --out {root} (resumable)")
     try:
         with np.load(path, allow_pickle=False) as data:
             grey = np.asarray(data["grey"])
@@ -460,21 +519,80 @@ def save_sample(path: Path, frames: np.ndarray, voxels: np.ndarray, n_events: in
         )
 
 
-def load_sample(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
-    """Read a sample file; return ``(frames uint8 (D, S, S), voxels bool (32, 32, 32))``."""
+def _member(data, name: str, path: Path, max_bytes: int) -> np.ndarray:
+    """Array ``name`` of an open ``.npz``, refused unread when its stored size exceeds
+    ``max_bytes`` (so a small file cannot ask for gigabytes)."""
+    try:
+        size = data.zip.getinfo(f"{name}.npy").file_size
+    except KeyError:
+        raise DatasetError(f"{path} has no array {name!r}; it is not a sample file: delete "
+                           f"it and rebuild it with make-data") from None
+    if size > max_bytes + 4096:  # 4096: room for the .npy header
+        raise DatasetError(f"{path}: array {name!r} takes {size} bytes, more than its shape "
+                           f"allows ({max_bytes}); delete it and rebuild it with make-data")
+    return data[name]
+
+
+def _stored_shape(data, name: str, path: Path) -> tuple[int, ...]:
+    shape = _member(data, f"{name}_shape", path, 64)
+    if shape.dtype.kind not in "iu" or shape.shape != (3,) or (shape < 0).any():
+        raise DatasetError(f"{path}: {name}_shape must be 3 whole numbers >= 0, got "
+                           f"{shape.tolist()!r}; delete it and rebuild it with make-data")
+    shape = tuple(int(v) for v in shape)
+    if np.prod(shape, dtype=np.float64) > MAX_FRAMES_PER_SAMPLE:
+        raise DatasetError(f"{path}: {name}_shape {list(shape)} holds more than "
+                           f"{MAX_FRAMES_PER_SAMPLE} values; delete it and rebuild it with "
+                           "make-data")
+    return shape
+
+
+def _unpacked(data, name: str, shape: tuple[int, ...], path: Path) -> np.ndarray:
+    count = int(np.prod(shape))
+    packed = _member(data, name, path, (count + 7) // 8)
+    if packed.dtype != np.uint8 or packed.shape != ((count + 7) // 8,):
+        raise DatasetError(f"{path}: {name} holds {packed.dtype} {packed.shape}, not the "
+                           f"{(count + 7) // 8} packed bytes of shape {list(shape)} (a "
+                           "truncated or edited file); delete it and rebuild it with make-data")
+    return np.unpackbits(packed, count=count).reshape(shape)
+
+
+def load_sample(path: str | os.PathLike, frames_shape: Sequence[int] | None = None,
+                voxels_shape: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Read a sample file; return ``(frames uint8 (D, S, S), voxels bool (32, 32, 32))``.
+
+    The stored shapes, dtypes and packed lengths are checked before anything is unpacked,
+    and against ``frames_shape`` / ``voxels_shape`` when given (what config.json says);
+    any mismatch or damage is a :class:`DatasetError` naming the file. A missing file
+    raises FileNotFoundError.
+    """
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as data:
-            frames_shape = tuple(int(v) for v in data["frames_shape"])
-            voxels_shape = tuple(int(v) for v in data["voxels_shape"])
-            frames = np.unpackbits(data["frames"], count=int(np.prod(frames_shape)))
-            voxels = np.unpackbits(data["voxels"], count=int(np.prod(voxels_shape)))
+        data = np.load(path, allow_pickle=False)
     except FileNotFoundError:
         raise
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as err:
+        raise DatasetError(f"{path}: corrupted or truncated sample file ({err}); delete it "
+                           "and rebuild it with `python -m e2vlib make-data`") from err
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise DatasetError(f"{path} is a single .npy array, not a sample file (.npz); delete "
+                           "it and rebuild it with `python -m e2vlib make-data`")
+    out = []
+    try:
+        with data:
+            for name, expected in (("frames", frames_shape), ("voxels", voxels_shape)):
+                shape = _stored_shape(data, name, path)
+                if expected is not None and shape != tuple(expected):
+                    raise DatasetError(
+                        f"{path}: {name} of shape {shape}, but the dataset's config.json "
+                        f"makes {tuple(expected)}; the sample comes from another build: "
+                        "delete it and rebuild it with make-data")
+                out.append(_unpacked(data, name, shape, path))
+    except DatasetError:
+        raise
     except (zipfile.BadZipFile, EOFError, OSError, KeyError, ValueError) as err:
-        raise ValueError(f"{path}: corrupted or truncated sample file ({err}); "
-                         "rebuild it with `python -m e2vlib make-data`") from err
-    return frames.reshape(frames_shape), voxels.reshape(voxels_shape).astype(bool)
+        raise DatasetError(f"{path}: corrupted or truncated sample file ({err}); delete it "
+                           "and rebuild it with `python -m e2vlib make-data`") from err
+    return out[0], out[1].astype(bool)
 
 
 def _build_one(args: tuple[BuildConfig, SampleSpec, str, bool]) -> dict:
@@ -504,6 +622,65 @@ def parse_shard(text: str) -> tuple[int, int]:
     return i, n
 
 
+DATASET_ENTRIES = ("samples", "events", GREY_DIR, "shards", "manifest.csv", "config.json")
+"""What a folder being built holds; make-data refuses a folder holding anything else
+before its config.json is written."""
+
+
+def check_build_folder(root: str | os.PathLike, config: BuildConfig) -> None:
+    """Refuse to build ``config`` into ``root`` (DatasetError, before anything is written)
+    when ``root`` is a file, a dataset of other settings, or a non-empty folder of files
+    that are not a dataset's (:data:`DATASET_ENTRIES`), as ``merge-data`` refuses."""
+    root = Path(root)
+    if root.exists() and not root.is_dir():
+        raise DatasetError(f"{root} is a file; give make-data a folder (new or empty)")
+    config_path = root / "config.json"
+    if config_path.exists():
+        try:
+            stored = BuildConfig.from_dict(read_config(root)).to_dict()
+        except (TypeError, ValueError) as err:
+            raise DatasetError(f"{config_path} holds no valid build settings "
+                               f"({' '.join(str(err).split())}); use another --out folder or "
+                               "delete it to rebuild") from None
+        if stored != config.to_dict():
+            raise DatasetError(f"{config_path} was built with different settings {stored}; "
+                               "use another --out folder or delete it to rebuild")
+        return
+    if not root.is_dir():
+        return
+    foreign = sorted(p.name for p in root.iterdir() if p.name not in DATASET_ENTRIES
+                     and not p.name.startswith(".config.json."))
+    if foreign:
+        listed = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more"
+                                           if len(foreign) > 3 else "")
+        raise DatasetError(f"{root} exists and is not a dataset (no config.json; it holds "
+                           f"{listed}); make-data builds into a new or empty folder, or "
+                           "finishes a dataset of the same settings: choose another --out")
+
+
+def describe_build(root: str | os.PathLike, config: BuildConfig,
+                   shard: tuple[int, int] = (0, 1)) -> str:
+    """One line: how many samples the build of ``config`` (shard ``i/n``) into ``root``
+    plans, how many are there already and how many it will make.
+
+    >>> import tempfile
+    >>> config = BuildConfig(categories=("chair", "lamp"), per_category=5, resolution=32,
+    ...                      frame_size=16)
+    >>> line = describe_build(Path(tempfile.mkdtemp()), config)
+    >>> line[:49], line[-28:]
+    ('plan: 10 samples (2 categories x 5 objects; split', '0 already built, 10 to build')
+    """
+    root = Path(root)
+    index, count = shard
+    mine = [s for k, s in enumerate(plan_samples(config))
+            if k % count == index and s.split in config.splits]
+    done = sum(_sample_done(root, s.id, config) for s in mine)
+    where = f"; shard {index}/{count}" if count > 1 else ""
+    return (f"plan: {len(mine)} samples ({len(config.categories)} categories x "
+            f"{config.per_category} objects; splits {', '.join(config.splits)}{where}): "
+            f"{done} already built, {len(mine) - done} to build")
+
+
 def build_dataset(
     root: str | os.PathLike,
     config: BuildConfig,
@@ -524,17 +701,11 @@ def build_dataset(
     from tqdm.auto import tqdm
 
     root = Path(root)
+    check_build_folder(root, config)
     (root / "samples").mkdir(parents=True, exist_ok=True)
     (root / "events").mkdir(exist_ok=True)
     config_path = root / "config.json"
-    if config_path.exists():
-        stored = BuildConfig.from_dict(json.loads(config_path.read_text())).to_dict()
-        if stored != config.to_dict():
-            raise ValueError(
-                f"{config_path} was built with different settings {stored}; use another "
-                "--out folder or delete it to rebuild"
-            )
-    else:
+    if not config_path.exists():
         with atomic_path(config_path) as tmp:
             tmp.write_text(json.dumps(config.to_dict(), indent=2) + "\n")
 
@@ -642,17 +813,10 @@ def write_manifest(root: Path, specs: Iterable[SampleSpec],
 
 def read_manifest(root: str | os.PathLike) -> list[dict]:
     """Rows of ROOT/manifest.csv as dicts (``seed``, ``n_events`` as int; ``sha256`` as
-    written, and absent from manifests older than it)."""
-    path = Path(root) / "manifest.csv"
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"{path} not found: build a dataset with `python -m e2vlib make-data --out {root}`"
-        )
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    for row in rows:
-        row["seed"], row["n_events"] = int(row["seed"]), int(row["n_events"])
-    return rows
+    written, and absent from manifests older than it). Every row is checked
+    (:func:`e2vlib.dataset_checks.read_manifest_rows`): a bad one is a :class:`DatasetError`
+    naming its line."""
+    return read_manifest_rows(root)
 
 
 # --- sharded builds: command lines, merging, verifying ------------------------------------
@@ -699,23 +863,40 @@ class E2VDataset(Dataset):
     synset holding ``<scan>/events.npz`` and ``<scan>/model_normalized.npz``), whose
     events are turned into the paper's 100 frames of 5 ms and max-pooled from 512 to
     ``frame_size`` (256 in the paper). Introduced in notebooks/04_building_the_dataset.ipynb.
+
+    The folder is untrusted input (:mod:`e2vlib.dataset_checks`): the manifest and
+    config.json are checked on reading, only files inside ``root`` are read, and every
+    item's stored shapes are checked against config.json as it loads. ``verify=True`` also
+    loads every item of the split now and checks it against the ``sha256`` the manifest
+    recorded (what ``python -m e2vlib verify-data`` does for all splits). Problems raise
+    :class:`DatasetError` naming the file and the fix.
     """
 
     def __init__(self, root: str | os.PathLike, split: str = "train",
-                 frame_size: int | None = None, categories: Sequence[str] | None = None):
+                 frame_size: int | None = None, categories: Sequence[str] | None = None,
+                 verify: bool = False):
         if split not in SPLITS:
             raise ValueError(f"split must be one of {SPLITS}, got {split!r}")
         self.root = Path(root)
         self.split = split
         if not self.root.is_dir():
             raise FileNotFoundError(f"dataset folder {self.root} does not exist")
+        self.digests: dict[str, str] = {}
         if (self.root / "manifest.csv").exists():
             self.layout = "e2vlib"
-            rows = [r for r in read_manifest(self.root) if r["split"] == split]
+            self.config = dataset_config(self.root)
+            rows = read_manifest(self.root)
+            allowed = self.config.get("categories")
+            for row in rows:
+                if allowed is not None and row["category"] not in allowed:
+                    raise DatasetError(
+                        f"{self.root / 'manifest.csv'}: sample {row['id']!r} is a "
+                        f"{row['category']}, which config.json's categories ({', '.join(allowed)})"
+                        " do not include; fix or remove the row")
+            rows = [r for r in rows if r["split"] == split]
             self.items = [(r["id"], r["category"], self.root / "samples" / f"{r['id']}.npz")
                           for r in rows]
-            self.config = json.loads((self.root / "config.json").read_text())
-            self.config.update(frame_settings(self.config))
+            self.digests = {r["id"]: r["sha256"] for r in rows if r.get("sha256")}
             stored = self.config["frame_size"]
             if frame_size not in (None, stored):
                 raise ValueError(f"{self.root} stores {stored}px frames; frame_size={frame_size}"
@@ -731,7 +912,31 @@ class E2VDataset(Dataset):
         if categories is not None:
             self.items = [it for it in self.items if it[1] in set(categories)]
         if not self.items:
-            raise ValueError(f"{self.root}: no samples in split {split!r}")
+            raise DatasetError(f"{self.root}: no samples in split {split!r}")
+        if verify:
+            problems = [p for i in range(len(self.items)) if (p := self.check_item(i))]
+            if problems:
+                raise DatasetError(f"{len(problems)} of {len(self.items)} {split} samples of "
+                                   f"{self.root} are bad: " + "; ".join(problems[:5])
+                                   + ("; ..." if len(problems) > 5 else ""))
+
+    def check_item(self, index: int) -> str | None:
+        """What is wrong with item ``index`` (it does not load as config.json says, or its
+        arrays differ from the manifest's ``sha256``), or None when it is sound."""
+        try:
+            self.arrays(index)
+            sample_id, _, path = self.items[index]
+            recorded = self.digests.get(sample_id)
+            if self.layout == "e2vlib" and recorded is None:
+                return (f"{path}: the manifest records no sha256 to check it against (an "
+                        f"older build); rerun make-data --out {self.root} to record them")
+            if recorded is not None and npz_digest(path) != recorded:
+                return (f"{path} does not match the sha256 its manifest recorded (changed or "
+                        "damaged since it was built); delete it and rebuild it with "
+                        f"{rebuild_hint(self.root)}")
+        except (DatasetError, ValueError) as err:
+            return " ".join(str(err).split())
+        return None
 
     def __len__(self) -> int:
         return len(self.items)
@@ -771,7 +976,9 @@ class E2VDataset(Dataset):
             raise IndexError(f"index {index} is out of range for {len(self.items)} items; "
                              f"use 0..{len(self.items) - 1}")
         path = self.root / "events" / f"{self.items[index][0]}.npz"
-        return path if self.layout == "e2vlib" and path.is_file() else None
+        if self.layout != "e2vlib" or not path.is_file():
+            return None
+        return inside(self.root, path)
 
     @property
     def input_shape(self) -> tuple[int, int, int]:
@@ -779,11 +986,20 @@ class E2VDataset(Dataset):
         return (self.config["n_frames"], self.frame_size, self.frame_size)
 
     def arrays(self, index: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(frames uint8 (D, H, W), voxels bool (32, 32, 32))`` of item ``index``."""
+        """``(frames uint8 (D, H, W), voxels bool (32, 32, 32))`` of item ``index``,
+        checked against :attr:`input_shape` (DatasetError naming the file otherwise)."""
         sample_id, _, path = self.items[index]
-        if self.layout == "e2vlib":
-            return load_sample(path)
-        return load_synthevox3d_scan(path, self.frame_size)
+        if self.layout != "e2vlib":
+            for name in ("events.npz", "model_normalized.npz"):
+                inside(self.root, path / name)
+            return load_synthevox3d_scan(path, self.frame_size)
+        inside(self.root, path)
+        try:
+            return load_sample(path, self.input_shape, (paper.GRID_SIDE,) * 3)
+        except FileNotFoundError:
+            raise DatasetError(f"sample {sample_id!r} listed in {self.root / 'manifest.csv'} "
+                               f"is missing on disk ({path}); rebuild it with "
+                               f"{rebuild_hint(self.root)}") from None
 
     def grey_video(self, index: int) -> np.ndarray:
         """Grey video of item ``index``, uint8 ``(D, H, W)`` (:func:`load_grey_video`);
@@ -805,6 +1021,29 @@ class E2VDataset(Dataset):
             "category": category,
             "id": sample_id,
         }
+
+
+def verify_dataset(root: str | os.PathLike) -> tuple[int, list[str]]:
+    """Check every sample of every split of ``root`` (:meth:`E2VDataset.check_item`:
+    it loads as config.json says and matches the manifest's ``sha256``); return
+    ``(samples checked, problems)``, one line per bad sample. A manifest or config.json
+    that cannot be read raises :class:`DatasetError`. What ``verify-data`` runs."""
+    root = Path(root)
+    if (root / "manifest.csv").exists():
+        present = {row["split"] for row in read_manifest(root)}
+    elif root.is_dir():
+        present = {split for *_, split in synthevox3d_items(root)}
+    else:
+        raise FileNotFoundError(f"dataset folder {root} does not exist")
+    if not present:
+        raise DatasetError(f"{root / 'manifest.csv'} lists no samples; build them with "
+                           f"{rebuild_hint(root)}")
+    checked, problems = 0, []
+    for split in (s for s in SPLITS if s in present):
+        dataset = E2VDataset(root, split)
+        checked += len(dataset)
+        problems += [p for i in range(len(dataset)) if (p := dataset.check_item(i))]
+    return checked, problems
 
 
 def synthevox3d_items(root: Path) -> list[tuple[str, str, Path, str]]:
