@@ -71,6 +71,21 @@ def _whole_number(minimum: int):
     return parse
 
 
+def _bounded(minimum: int, maximum: int):
+    """An argparse type: a whole number from ``minimum`` to ``maximum``."""
+    parse_low = _whole_number(minimum)
+
+    def parse(text: str) -> int:
+        value = parse_low(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(
+                f"must be a whole number from {minimum} to {maximum}, got {value}")
+        return value
+
+    parse.__name__ = f"whole number {minimum}..{maximum}"
+    return parse
+
+
 def _positive_number(text: str) -> float:
     """An argparse type: a finite number > 0."""
     try:
@@ -207,7 +222,7 @@ def _build_config(args: argparse.Namespace):
 
 
 def _make_data(args: argparse.Namespace) -> int:
-    from e2vlib.data import build_dataset, parse_shard
+    from e2vlib.data import build_dataset, check_build_folder, describe_build, parse_shard
 
     try:
         shard = parse_shard(args.shard)
@@ -215,6 +230,8 @@ def _make_data(args: argparse.Namespace) -> int:
         raise UsageError(f"--shard: {err}") from None
     config = _build_config(args)
     _output_folder(args.out, "--out")
+    check_build_folder(args.out, config)
+    print(describe_build(args.out, config, shard), flush=True)
     manifest = build_dataset(args.out, config, workers=args.workers, shard=shard)
     print(f"manifest: {manifest}")
     return 0
@@ -240,6 +257,21 @@ def _merge_data(args: argparse.Namespace) -> int:
     else:
         print(f"verified {out}: all {report.n_samples} planned samples present and readable")
     print(f"manifest: {report.manifest}")
+    return 0
+
+
+def _verify_data(args: argparse.Namespace) -> int:
+    from e2vlib.data import verify_dataset
+
+    checked, problems = verify_dataset(args.data)
+    for problem in problems:
+        print(f"bad: {problem}")
+    if problems:
+        raise CommandError(f"{len(problems)} of {checked} samples of {args.data} are bad (listed "
+                           "above); delete those files and rebuild them with make-data --out "
+                           f"{args.data} (resumable), then rerun verify-data")
+    print(f"verified {args.data}: all {checked} samples load as config.json says and match "
+          "the manifest's sha256")
     return 0
 
 
@@ -274,9 +306,8 @@ def _resume_checks(last: Path, ckpt: dict, preset: str | None) -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
-    import json
-
     from e2vlib.data import E2VDataset
+    from e2vlib.dataset_checks import read_config
     from e2vlib.model import PRESETS, build_e2v, model_from_checkpoint, read_checkpoint
     from e2vlib.paper import IOU_THRESHOLD
     from e2vlib.train import RECIPES, fit, get_recipe, init_distributed_from_env
@@ -298,6 +329,11 @@ def _train(args: argparse.Namespace) -> int:
         raise UsageError(str(err)) from None
     _check_device(args.device)
     out = _output_folder(args.out, "--out")
+    data_root = Path(args.data).resolve()
+    if out.resolve().is_relative_to(data_root):
+        raise UsageError(f"--out {out} is inside the dataset folder {args.data}; checkpoints "
+                         "there would mix with the data (and be read as part of it): choose "
+                         "an --out outside it")
     init = None
     if args.init:
         init = Path(args.init)
@@ -311,8 +347,7 @@ def _train(args: argparse.Namespace) -> int:
     init_distributed_from_env()
     train_set, val_set = E2VDataset(args.data, "train"), E2VDataset(args.data, "val")
     config_path = Path(args.data) / "config.json"
-    metadata = {"data_config": json.loads(config_path.read_text())} if config_path.exists() \
-        else {}
+    metadata = {"data_config": read_config(args.data)} if config_path.exists() else {}
     if args.resume:
         ckpt = read_checkpoint(last)
         _resume_checks(last, ckpt, args.preset)
@@ -388,6 +423,10 @@ def _reconstruct(args: argparse.Namespace) -> int:
 
     out = _output_file(args.out, "--out", "reconstruction.npz")
     png = _output_file(args.png, "--png", "reconstruction.png") if args.png else None
+    for flag, path in (("--out", out), ("--png", png)):
+        if path is not None and path.exists() and not args.overwrite:
+            raise UsageError(f"{flag} {path} exists; pass --overwrite to replace it, or "
+                             f"choose another {flag}")
     if png is not None and png.suffix.lower() not in PICTURE_TYPES:
         raise UsageError(f"--png {png}: unknown picture type {png.suffix!r}; end the name "
                          f"with one of {', '.join(PICTURE_TYPES)}")
@@ -421,8 +460,12 @@ def _reconstruct(args: argparse.Namespace) -> int:
         frames, outputs["voxels"] = sample.frames, sample.voxels
     else:
         events, sensor_size = load_events(args.events)
-        frames = events_to_model_input(events, sensor_size, frame_size, n_frames=config.n_frames,
-                                       dt_us=config.dt_us, windows=config.windows)
+        try:
+            frames = events_to_model_input(events, sensor_size, frame_size,
+                                           n_frames=config.n_frames, dt_us=config.dt_us,
+                                           windows=config.windows)
+        except ValueError as err:
+            raise CommandError(f"--events {source}: {err}; nothing was written") from None
     if tuple(frames.shape) != tuple(model.input_shape):
         raise CommandError(f"the model expects frames of shape {tuple(model.input_shape)}, "
                            f"the input gives {tuple(frames.shape)}")
@@ -516,6 +559,7 @@ def _geometry_study(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from e2vlib.metrics import MAX_SURFACE_POINTS
     from e2vlib.render import ANTI_ALIASING  # numpy only; pyvista loads when rendering
 
     parser = _Parser(
@@ -578,6 +622,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "when on the same filesystem, else copy)")
     p.set_defaults(func=_merge_data)
 
+    p = sub.add_parser("verify-data", help="check every sample of a dataset: it loads as "
+                       "config.json says and matches the manifest's sha256; lists each bad one")
+    p.add_argument("--data", required=True, help="dataset folder")
+    p.set_defaults(func=_verify_data)
+
     p = sub.add_parser("train", help="train E2V on a dataset (writes best.pt, last.pt, "
                        "history.json); run under torchrun for several processes/GPUs")
     p.add_argument("--data", required=True, help="dataset folder (e2vlib or SynthEVox3D)")
@@ -609,8 +658,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--split", default="test", choices=("train", "val", "test"))
     p.add_argument("--json", help="write the results as JSON here")
     p.add_argument("--device", default="auto", help=f"one of {DEVICES} (default auto)")
-    p.add_argument("--fscore-points", type=positive, default=8192,
-                   help="surface points per grid for the F-score (default 8192)")
+    p.add_argument("--fscore-points", type=_bounded(1, MAX_SURFACE_POINTS), default=8192,
+                   help="surface points per grid for the F-score (default 8192, at most "
+                   f"{MAX_SURFACE_POINTS})")
     p.set_defaults(func=_evaluate)
 
     p = sub.add_parser("reconstruct", help="reconstruct one object from a mesh (through the "
@@ -623,6 +673,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--png", help="also save a picture of the reconstruction here")
     p.add_argument("--device", default="auto", help=f"one of {DEVICES} (default auto)")
     p.add_argument("--seed", type=count, default=0, help="simulator seed (mesh input)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace --out (and --png) if they exist (default: refuse)")
     p.set_defaults(func=_reconstruct)
     p = sub.add_parser("figures", help="render the README's pictures (events in space-time, "
                        "event frames, ground truth beside reconstruction)")
