@@ -43,7 +43,8 @@ browser: $(BROWSER_STAMP)
 
 # The book: every lesson executed (full mode; `make book QUICK=1` for quick mode, as CI builds it)
 # and rendered with Sphinx + MyST-NB to build/book/ (open build/book/index.html). jupyter-cache
-# (build/jupyter_cache, build/jupyter_cache_quick) re-runs only the lessons whose code changed;
+# (build/jupyter_cache, build/jupyter_cache_quick) re-runs only the lessons whose code changed,
+# or all of them when the library, data_small/ or the recorded results changed;
 # any cell error fails the build with the lesson and the cell named. `make book-check` opens
 # every page in headless Chromium (tests/browser/check_book.py); BOOK_CHECK_ARGS="--figures
 # docs/figures" also renews the README's screenshots of the book.

@@ -9,6 +9,7 @@ figures, the lesson map, the paper's facts) are written to ``book/_generated/`` 
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -37,15 +38,48 @@ suppress_warnings = ["myst.header", "misc.highlighting_failure"]
 # Execution: every lesson runs in a fresh kernel from notebooks/; jupyter-cache keeps the outputs
 # of a lesson whose code is unchanged, so a rebuild runs only the lessons that changed. The cache
 # of the quick build is kept apart from the full one.
+#
+# jupyter-cache keys a lesson on its code cells only, but a lesson's outputs also come from the
+# library, the shipped data and the recorded results it reads. Their digest names the cache
+# folder, so that changing any of them re-runs every lesson (older caches are removed).
+INPUTS = ("e2vlib", "data_small", "experiments/results", "bench/RESULTS.md")
+
+
+def inputs_digest() -> str:
+    """sha256 (first 12 hex digits) over the paths and bytes of every file in ``INPUTS``."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for name in INPUTS:
+        path = ROOT / name
+        files = [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file())
+        for file in files:
+            if "__pycache__" not in file.parts:
+                digest.update(str(file.relative_to(ROOT)).encode() + b"\0" + file.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def cache_folder() -> Path:
+    parent = ROOT / "build" / ("jupyter_cache_quick" if QUICK else "jupyter_cache")
+    folder = parent / inputs_digest()
+    if parent.exists():
+        for old in parent.iterdir():
+            if old != folder and old.is_dir():
+                shutil.rmtree(old)
+    return folder
+
+
 nb_execution_mode = "cache"
-CACHE = "jupyter_cache_quick" if QUICK else "jupyter_cache"
-nb_execution_cache_path = str(ROOT / "build" / CACHE)
+nb_execution_cache_path = str(cache_folder())
 nb_execution_timeout = 1800
 nb_execution_raise_on_error = True  # any cell error fails the build
 nb_execution_show_tb = True  # with the lesson, the cell and its traceback on stderr
 nb_merge_streams = True
 nb_output_stderr = "remove"  # progress bars' stderr lines; their widget view stays
+# Widgets need a kernel: the page shows each one's still picture, and loads no widget scripts
+# (they would come from a CDN).
 nb_mime_priority_overrides = [("html", "application/vnd.jupyter.widget-view+json", None)]
+nb_ipywidgets_js = {}
 
 html_theme = "sphinx_book_theme"
 html_title = "e2v notebooks" + (" (quick build)" if QUICK else "")
@@ -57,6 +91,7 @@ html_theme_options = {
 }
 html_context = {"default_mode": "light"}  # no console error about an unset mode
 html_static_path = []
+html_favicon = "favicon.svg"
 mathjax_path = "mathjax/tex-chtml.js"  # served from the site itself: no CDN at read time
 html_extra_path = ["extra"]
 html_last_updated_fmt = None
@@ -83,7 +118,6 @@ def copy_mathjax(app, error) -> None:
     the TeX-to-HTML component with what it loads on demand (TeX extensions, the CHTML fonts,
     the menu and the accessibility tools), not the other combined builds."""
     import importlib.util
-    import shutil
 
     if error is not None:
         return

@@ -37,6 +37,7 @@ def readme_page() -> str:
         return (f"```{{figure}} ../../{match['src']}\n:alt: {match['alt']}\n{width}\n"
                 f"{caption}\n```")
 
+    text = text.replace("# e2v notebooks\n", "# About the collection (README)\n", 1)
     text = FIGURE_BLOCK.sub(figure, text)
     text = re.sub(r"\]\((?!https?:|#)([^)]+)\)", r"](../../\1)", text)
     return text
@@ -81,6 +82,8 @@ def map_page(out: Path) -> str:
         goals = "; ".join(h["goals"][:3])
         rows.append(f"| [{h['title']}](../../notebooks/{h['name']}) | {needs} | {h['quick']} | "
                     f"{h['full']} | {goals} |")
+    alt = "; ".join(f"{h['number']} needs {' and '.join(h['prerequisites'])}"
+                    for h in headers if h["prerequisites"])
     return f"""# Lesson map
 
 Every lesson runs on its own (each loads what it needs from `data_small/`, including a trained
@@ -90,8 +93,7 @@ runs) and in full mode (a student's run), from the "Lessons" table of `bench/RES
 class takes longer, for reading and the exercises (the front page estimates how much).
 
 ```{{figure}} lesson_graph.png
-:alt: The lessons as boxes in rows, with arrows from each prerequisite to the lessons that
-  need it. Lesson 00 has none; the study lessons 09 to 12 come last.
+:alt: The lessons as boxes, with an arrow from each prerequisite: {alt}.
 
 The prerequisite graph of the lessons.
 ```

@@ -169,7 +169,7 @@ def show_frame(
 
 def animate_frames(frames: np.ndarray, interval_ms: int = 50, dt_us: int | None = None,
                    cmap: str = "gray_r"):
-    """A matplotlib animation of frames ``(n, H, W)``; show it with ``anim.to_jshtml()``.
+    """A matplotlib animation of frames ``(n, H, W)``; show it with :func:`animation_html`.
 
     No ffmpeg needed. Introduced in notebooks/02_event_frames.ipynb.
     """
@@ -189,6 +189,34 @@ def animate_frames(frames: np.ndarray, interval_ms: int = 50, dt_us: int | None 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=interval_ms, blit=True)
     plt.close(fig)
     return anim
+
+
+def animation_html(anim: animation.Animation, description: str) -> str:
+    """``anim`` as a self-contained HTML player that reads well to everyone.
+
+    matplotlib's ``to_jshtml()`` with ``description`` as the picture's alt text and as the
+    frame slider's label, and without its link to an icon font on a CDN (JupyterLab and the
+    book ship the icons), so that the page loads nothing from outside.
+
+    Examples:
+        >>> anim = animate_frames(np.zeros((2, 4, 4)))
+        >>> html = animation_html(anim, "two empty frames")
+        >>> 'alt="two empty frames"' in html, "bootstrapcdn" in html
+        (True, False)
+    """
+    import html as html_text
+    import re
+
+    if not description.strip():
+        raise ValueError("describe the animation for readers who cannot see it: a non-empty "
+                         "description is its alt text")
+    label = html_text.escape(description, quote=True)
+    page = anim.to_jshtml()
+    page = re.sub(r'<link rel="stylesheet"\s+href="https://[^"]*font-awesome[^"]*">', "", page)
+    page = re.sub(r'<img id="(_anim_img\w+)">', rf'<img id="\1" alt="{label}">', page)
+    page = re.sub(r'<input id="(_anim_slider\w+)" type="range"',
+                  rf'<input id="\1" type="range" aria-label="frame of: {label}"', page)
+    return page
 
 
 # --- voxels (matplotlib: static, works everywhere) -----------------------------------------

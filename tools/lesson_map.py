@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+import textwrap
 from pathlib import Path
 
 import nbformat
@@ -124,22 +125,26 @@ def draw_graph(headers: list[dict], path: Path) -> Path:
     width = max(len(r) for r in rows.values())
     position = {n: ((i + 0.5) * width / len(r), -d) for d, r in rows.items() for i, n in
                 enumerate(r)}
-    fig, ax = plt.subplots(figsize=(2.1 * width + 1, 1.25 * len(rows) + 0.5))
-    for h in headers:
-        for p in h["prerequisites"]:
-            ax.annotate("", xy=position[h["number"]], xytext=position[p],
-                        arrowprops={"arrowstyle": "-|>", "color": "#555555", "lw": 1,
-                                    "shrinkA": 16, "shrinkB": 16})
+    fig, ax = plt.subplots(figsize=(1.9 * width + 0.4, 1.05 * len(rows) + 0.4))
+    boxes = {}
     for n, (x, y) in position.items():
         label = by_number[n]["title"].split("·", 1)[-1].split(":")[0].strip()
-        ax.text(x, y, f"{n}\n{label}", ha="center", va="center", fontsize=8,
-                bbox={"boxstyle": "round,pad=0.4", "facecolor": "#dbe6f4",
-                      "edgecolor": "#31567f"})
+        text = ax.text(x, y, f"{n}\n" + textwrap.fill(label, 18), ha="center", va="center",
+                       fontsize=8.5, zorder=3, bbox={"boxstyle": "round,pad=0.4",
+                                                     "facecolor": "#dbe6f4",
+                                                     "edgecolor": "#31567f"})
+        boxes[n] = text.get_bbox_patch()
+    for h in headers:
+        for p in h["prerequisites"]:  # from the bottom of the prerequisite's box to the top
+            ax.annotate("", xy=(0.5, 1.0), xycoords=boxes[h["number"]], xytext=(0.5, 0.0),
+                        textcoords=boxes[p], zorder=2,
+                        arrowprops={"arrowstyle": "-|>", "color": "#555555", "lw": 1,
+                                    "shrinkA": 0, "shrinkB": 1})
     ax.set_xlim(-0.2, width + 0.2)
     ax.set_ylim(-len(rows) + 0.5, 0.5)
     ax.axis("off")
     ax.set_title("Lessons and their prerequisites (an arrow points from a prerequisite)",
-                 fontsize=9)
+                 fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)

@@ -3,7 +3,8 @@
 ``make book-check`` runs this after ``make book`` (or ``make book QUICK=1``). It serves
 ``build/book`` on loopback (a free port) and, through Playwright and Debian's Chromium, checks:
 
-* every page loads with no console error and no uncaught script error;
+* every page loads with no console error, no uncaught script error, no failed request, and
+  nothing from outside the site (a reader offline sees the same page);
 * every lesson page has figures (images), none of them broken (all decoded, non-zero size),
   and every image has alt text or sits in a figure with a caption;
 * no page shows an error output or the word "Traceback";
@@ -77,13 +78,20 @@ def lesson_pages() -> list[str]:
 
 def check_page(page, base: str, path: str, checks: Checks, lesson: bool) -> None:
     errors: list[str] = []
+    outside: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("requestfailed", lambda r: errors.append(f"{r.url[:90]}: {r.failure}"))
+    page.on("response", lambda r: errors.append(f"{r.url[:90]}: {r.status}")
+            if r.status >= 400 else None)
+    page.on("request", lambda r: None if r.url.startswith((base, "data:", "blob:"))
+            else outside.append(r.url[:90]))
     response = page.goto(base + path, wait_until="load")
     page.wait_for_load_state("networkidle")
     status = response.status if response is not None else "no response"
     checks.check(response is not None and response.ok, f"{path}: loads ({status})")
-    checks.check(not errors, f"{path}: no console error {errors[:3]}")
+    checks.check(not errors, f"{path}: no console error {errors[:4]}")
+    checks.check(not outside, f"{path}: loads nothing from outside the site {outside[:3]}")
     text = page.inner_text("article") if page.query_selector("article") else page.inner_text("body")
     checks.check("Traceback" not in text, f"{path}: no 'Traceback' on the page")
     error_outputs = page.query_selector_all("div.output.traceback, div.output.error")
