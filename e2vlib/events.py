@@ -295,6 +295,10 @@ def validate(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
     return events
 
 
+MAX_SENSOR_SIDE = 65536
+"""Largest sensor side in px: x and y are uint16 (0..65535)."""
+
+
 def check_sensor_size(sensor_size: tuple[int, int]) -> tuple[int, int]:
     """Return ``(width, height)`` as ints, raising :class:`EventError` if malformed."""
     try:
@@ -310,6 +314,9 @@ def check_sensor_size(sensor_size: tuple[int, int]) -> tuple[int, int]:
                          f"{tuple(sensor_size)!r}")
     if width <= 0 or height <= 0:
         raise EventError(f"sensor_size must be positive (width, height), got {sensor_size!r}")
+    if max(width, height) > MAX_SENSOR_SIDE:
+        raise EventError(f"sensor_size {(width, height)} is larger than events can address: "
+                         f"x and y are uint16, so each side is at most {MAX_SENSOR_SIDE} px")
     return width, height
 
 

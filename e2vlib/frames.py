@@ -14,6 +14,7 @@ Introduced in notebooks/02_event_frames.ipynb.
 from __future__ import annotations
 
 import functools
+import os
 
 import numpy as np
 
@@ -164,7 +165,34 @@ def _group_offsets(bounds: np.ndarray, lo: int, hi: int, frame_elements: int) ->
 
 
 MAX_FRAMES_BYTES: int = 8 * 2**30
-"""Largest frame stack :func:`accumulate` allocates (8 GiB); larger requests raise EventError."""
+"""Largest frame stack :func:`accumulate` allocates (8 GiB, and at most half the memory
+available, :func:`frames_memory_limit`); larger requests raise EventError."""
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to new allocations now (Linux ``MemAvailable``, else the
+    free physical pages), or None where neither can be read."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def frames_memory_limit() -> tuple[int, str]:
+    """``(bytes, why)``: the largest frame stack :func:`accumulate` makes here, the smaller
+    of :data:`MAX_FRAMES_BYTES` and half the memory available now."""
+    available = available_memory()
+    if available is not None and available // 2 < MAX_FRAMES_BYTES:
+        return available // 2, (f"half the {available / 2**30:.1f} GiB of memory available "
+                                "now")
+    return MAX_FRAMES_BYTES, "frames.MAX_FRAMES_BYTES"
 
 WINDOWS = ("fixed", "paper")
 BACKENDS = ("auto", "numba", "numpy")
@@ -211,7 +239,7 @@ def accumulate(
 
     ``t0_us`` defaults to the first event's time (events before it are left out);
     ``n_frames`` to as many windows or groups as cover the last event. Events outside the
-    windows are left out. The frame stack may not exceed :data:`MAX_FRAMES_BYTES`.
+    windows are left out. The frame stack may not exceed :func:`frames_memory_limit`.
 
     Backends give identical frames: ``"numpy"`` is the plain reference written out below
     (vectorized blocks and one ``np.bincount``; read it to see how frames are made);
@@ -273,11 +301,12 @@ def accumulate(
             n = len(bounds) - 1 if n_wanted is None else n_wanted
     frame_elements = channels * height * width
     itemsize = 1 if mode == "binary" else 4
-    if n * frame_elements * itemsize > MAX_FRAMES_BYTES:
+    limit, why = frames_memory_limit()
+    if n * frame_elements * itemsize > limit:
         raise EventError(
             f"{n} frames of {frame_elements} values would take "
-            f"{n * frame_elements * itemsize / 2**30:.1f} GiB (limit "
-            f"{MAX_FRAMES_BYTES / 2**30:.0f} GiB, frames.MAX_FRAMES_BYTES); check dt_us and "
+            f"{n * frame_elements * itemsize / 2**30:.2f} GiB (limit "
+            f"{limit / 2**30:.2f} GiB: {why}); check sensor_size, dt_us and "
             f"t0_us against the event times ({int(t[0]) if len(t) else 0}.."
             f"{int(t[-1]) if len(t) else 0} us) or pass n_frames")
     shape = (n, 2, height, width) if mode == "polarity" else (n, height, width)

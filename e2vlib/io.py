@@ -41,6 +41,7 @@ import numpy as np
 from e2vlib.events import (
     INT64_MAX,
     INT64_MIN,
+    MAX_SENSOR_SIDE,
     TIME_RANGE,
     TIME_UNITS,
     EventError,
@@ -224,9 +225,10 @@ def _sensor_size(path: Path, where: str, values) -> tuple[int, int]:
     ok = (values.size == 2 and np.issubdtype(values.dtype, np.number)
           and values.dtype != bool and bool(np.all(np.isfinite(values)))
           and bool(np.all(values == np.round(values))) and bool(np.all(values >= 1)))
-    if not ok:
+    if not ok or np.max(values) > MAX_SENSOR_SIDE:
         raise ValueError(f"{path}: {where} must be the sensor size (width, height) in whole "
-                         f"positive pixels, got {values.tolist()}; write it again with "
+                         f"positive pixels of at most {MAX_SENSOR_SIDE} (x and y are uint16), "
+                         f"got {values.tolist()}; write it again with "
                          "save_events(path, events, (width, height))")
     return int(values[0]), int(values[1])
 
@@ -255,6 +257,13 @@ def _read_npz(path: Path) -> tuple[np.ndarray, tuple[int, int]]:
             sensor_size = _sensor_size(path, "the array sensor_size", data["sensor_size"])
     except (zipfile.BadZipFile, EOFError, OSError) as err:
         raise ValueError(f"{path}: corrupted or truncated .npz file ({err})") from err
+    except ValueError as err:
+        if str(err).startswith(f"{path}"):
+            raise
+        # np.load calls anything that is not a zip "pickled data"; it is never unpickled
+        raise ValueError(f"{path}: not an .npz event file (neither a zip of x, y, t, p, "
+                         "sensor_size arrays nor anything e2vlib reads; it was not unpickled): "
+                         "write it again with e2vlib.io.save_events") from err
     return make_events(*columns), sensor_size
 
 
@@ -304,6 +313,9 @@ def _parse_header(path: Path, lineno: int, text: str) -> tuple[int, int]:
                          "width and height there") from None
     if width <= 0 or height <= 0:
         raise ValueError(f"{path}, line {lineno}: {fix}, got {text!r}; both must be positive")
+    if max(width, height) > MAX_SENSOR_SIDE:
+        raise ValueError(f"{path}, line {lineno}: {fix}, got {text!r}; events store x and y "
+                         f"as uint16, so a side is at most {MAX_SENSOR_SIDE} px")
     return width, height
 
 
@@ -480,7 +492,16 @@ def _read_hdf5(path: Path) -> tuple[np.ndarray, tuple[int, int]]:
                 )
     except OSError as err:
         raise ValueError(f"{path}: corrupted or truncated HDF5 file ({err})") from err
-    t_us = add_time_offset(times_to_us(t, _time_unit(attrs, t)), offset_us)
+    except ValueError as err:
+        if str(err).startswith(str(path)):
+            raise
+        raise ValueError(f"{path}: {err}") from err
+    try:
+        unit = _time_unit(attrs, t)
+    except ValueError as err:
+        raise ValueError(f"{path}: {err} (the t_unit attribute of the events); fix the "
+                         "attribute or write the file again with e2vlib.io.save_events") from None
+    t_us = add_time_offset(times_to_us(t, unit), offset_us)
     events = make_events(x, y, t_us, p)
     width = attrs.get("width", attrs.get("sensor_width"))
     height = attrs.get("height", attrs.get("sensor_height"))

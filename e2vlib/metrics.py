@@ -15,6 +15,29 @@ from e2vlib import paper
 IOU_THRESHOLDS = paper.IOU_THRESHOLDS  # the thresholds Pix2Vox reports (our choice to follow)
 
 
+MAX_SURFACE_POINTS = 2**20
+"""Most surface points :func:`fscore` samples per grid (1,048,576; 8192 is usual): two
+k-d trees of that many points take about 100 MiB."""
+
+
+def check_threshold(threshold: float) -> float:
+    """``threshold`` as a float if it is a number in [0, 1], else ValueError: a
+    probability threshold outside it (or NaN) would score every grid as empty or full.
+
+    >>> check_threshold(0.3)
+    0.3
+    >>> check_threshold(2)
+    Traceback (most recent call last):
+    ...
+    ValueError: threshold must be a probability in [0, 1] (0.3 is usual), got 2
+    """
+    if isinstance(threshold, bool) or not isinstance(threshold, int | float | np.number) or \
+            not 0.0 <= float(threshold) <= 1.0:  # NaN fails the comparison
+        raise ValueError(f"threshold must be a probability in [0, 1] (0.3 is usual), got "
+                         f"{threshold!r}")
+    return float(threshold)
+
+
 def _to_numpy(a) -> np.ndarray:
     if hasattr(a, "detach"):
         a = a.detach().cpu().numpy()
@@ -50,6 +73,7 @@ def iou(pred, gt, threshold: float = paper.IOU_THRESHOLD):
     >>> iou(pred, gt, threshold=0.95)                    # nothing predicted at 0.95
     0.0
     """
+    threshold = check_threshold(threshold)
     pred, gt = _check_pair(pred, gt)
     p = pred >= threshold
     g = gt > 0.5
@@ -114,8 +138,11 @@ def fscores(pred, gt, threshold: float = paper.IOU_THRESHOLD,
     """
     from scipy.spatial import cKDTree
 
-    if isinstance(n_points, bool) or not isinstance(n_points, int | np.integer) or n_points < 1:
-        raise ValueError(f"n_points must be a positive integer (8192 is usual), got {n_points!r}")
+    threshold = check_threshold(threshold)
+    if isinstance(n_points, bool) or not isinstance(n_points, int | np.integer) or not (
+            1 <= n_points <= MAX_SURFACE_POINTS):
+        raise ValueError(f"n_points must be a positive integer of at most "
+                         f"{MAX_SURFACE_POINTS} (8192 is usual), got {n_points!r}")
     distances = tuple(distances)
     if not distances or not all(np.isfinite(d) and d > 0 for d in distances):
         raise ValueError(f"distances must be positive fractions of the cube side, got {distances}")
@@ -193,6 +220,7 @@ def surface_voxel_fscore(pred, gt, threshold: float = paper.IOU_THRESHOLD,
             or tolerance_voxels < 0:
         raise ValueError("tolerance_voxels must be a distance in voxels >= 0 (0: surface "
                          f"voxels must coincide), got {tolerance_voxels!r}")
+    threshold = check_threshold(threshold)
     pred, gt = _check_pair(pred, gt)
     if pred.ndim == 4:
         return np.array([surface_voxel_fscore(p, g, threshold, tolerance_voxels)

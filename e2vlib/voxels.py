@@ -50,7 +50,15 @@ def _check_mesh(mesh: trimesh.Trimesh) -> np.ndarray:
         raise ValueError(f"voxelize needs a trimesh.Trimesh, got {type(mesh).__name__}")
     if len(mesh.faces) == 0:
         raise ValueError("voxelize got a mesh with no faces; nothing to voxelize")
-    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
+    faces, n_vertices = np.asarray(mesh.faces), len(mesh.vertices)
+    if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
+        raise ValueError(f"mesh faces must be an (F, 3) integer array, got {faces.dtype} "
+                         f"{faces.shape}; build the mesh with trimesh.Trimesh(vertices, faces)")
+    if faces.min() < 0 or faces.max() >= n_vertices:
+        raise ValueError(f"mesh faces index vertices {int(faces.min())}..{int(faces.max())} "
+                         f"but the mesh has {n_vertices} (0..{n_vertices - 1}); fix the faces "
+                         "or load the mesh again with e2vlib.shapes.load_mesh")
+    tri = np.asarray(mesh.vertices, dtype=np.float64)[faces]
     if not np.all(np.isfinite(tri)):
         raise ValueError("mesh has NaN/inf vertex coordinates; clean the mesh first")
     return tri

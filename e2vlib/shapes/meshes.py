@@ -73,7 +73,19 @@ def load_mesh(path: str | os.PathLike) -> trimesh.Trimesh:
             f"{p}: unsupported mesh type {suffix!r}; use one of {', '.join(MESH_SUFFIXES)}"
         )
     try:
+        # unprocessed first: processing silently drops NaN/inf vertices and their faces
+        raw = trimesh.load(str(p), force="mesh", process=False, skip_materials=True)
+        parts = raw.geometry.values() if isinstance(raw, trimesh.Scene) else [raw]
+        vertices = [np.asarray(getattr(g, "vertices", np.zeros((0, 3)))) for g in parts]
+        bad = sum(int((~np.isfinite(v)).any(axis=1).sum()) for v in vertices if v.ndim == 2)
+        if bad:
+            raise ValueError(f"{p}: {bad} of {sum(len(v) for v in vertices)} vertices have "
+                             "NaN or infinite coordinates; fix or re-export the mesh")
         loaded = trimesh.load(str(p), force="mesh", process=True, skip_materials=True)
+    except ValueError as err:
+        if str(err).startswith(str(p)):
+            raise
+        raise ValueError(f"{p}: could not read mesh (ValueError: {err})") from err
     except Exception as err:  # parsers raise many types
         raise ValueError(f"{p}: could not read mesh ({type(err).__name__}: {err})") from err
     if isinstance(loaded, trimesh.Scene):  # defensive: force="mesh" normally merges
