@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from e2vlib import paper
 from e2vlib.data import (
     GREY_DIR,
     SHARDS_DIR,
@@ -113,10 +114,8 @@ def _check_file(kind: str, path: Path, config: BuildConfig) -> None:
     """Load one file of a sample to prove it is whole (raises MergeError naming it)."""
     try:
         if kind == "samples":
-            frames, voxels = load_sample(path)
-            if frames.shape != (config.n_frames, config.frame_size, config.frame_size):
-                raise ValueError(f"frames of shape {frames.shape}, not "
-                                 f"{(config.n_frames, config.frame_size, config.frame_size)}")
+            load_sample(path, (config.n_frames, config.frame_size, config.frame_size),
+                        (paper.GRID_SIDE,) * 3)
         elif kind == GREY_DIR:
             with np.load(path, allow_pickle=False) as data:
                 grey = data["grey"]

@@ -157,6 +157,20 @@ def test_grey_video_reads_and_names_only_files_inside_the_root(tmp_path):
         load_grey_video(root, "chair_0000")
 
 
+def test_synthevox3d_scans_linked_outside_are_refused(tmp_path):
+    from .test_data import make_synthevox3d
+
+    root = tmp_path / "release"
+    make_synthevox3d(root, n_scans=4)
+    dataset = E2VDataset(root, "train", frame_size=64)
+    scan = dataset.items[0][2]
+    shutil.move(scan / "events.npz", tmp_path / "events.npz")
+    (scan / "events.npz").symlink_to(tmp_path / "events.npz")
+    with pytest.raises(DatasetError, match="events.npz points outside the dataset"):
+        dataset[0]
+    assert tuple(dataset[1]["frames"].shape) == (100, 64, 64)  # the others still load
+
+
 # --- sample files checked against config.json and the manifest -----------------------------
 
 
