@@ -48,6 +48,7 @@ from e2vlib.dataset_checks import (
     DatasetError,
     check_id,
     inside,
+    npz_problem,
     read_config,
     read_manifest_rows,
     rebuild_hint,
@@ -571,8 +572,8 @@ def load_sample(path: str | os.PathLike, frames_shape: Sequence[int] | None = No
     except FileNotFoundError:
         raise
     except (zipfile.BadZipFile, EOFError, OSError, ValueError) as err:
-        raise DatasetError(f"{path}: corrupted or truncated sample file ({err}); delete it "
-                           "and rebuild it with `python -m e2vlib make-data`") from err
+        raise DatasetError(f"{path}: corrupted or truncated sample file ({npz_problem(err)}); "
+                           "delete it and rebuild it with `python -m e2vlib make-data`") from err
     if not isinstance(data, np.lib.npyio.NpzFile):
         raise DatasetError(f"{path} is a single .npy array, not a sample file (.npz); delete "
                            "it and rebuild it with `python -m e2vlib make-data`")
@@ -1105,7 +1106,7 @@ def load_synthevox3d_scan(scan: Path, frame_size: int = 256) -> tuple[np.ndarray
         with np.load(scan / "model_normalized.npz", allow_pickle=False) as data:
             voxels = np.asarray(data["arr_0"]).astype(bool)
     except (zipfile.BadZipFile, EOFError, OSError, KeyError, ValueError) as err:
-        raise ValueError(f"{scan}: unreadable SynthEVox3D scan ({err})") from err
+        raise DatasetError(f"{scan}: unreadable SynthEVox3D scan ({npz_problem(err)})") from err
     if table.ndim != 2 or table.shape[1] != 4:
         raise ValueError(f"{scan}/events.npz: expected an (N, 4) array t, x, y, p, "
                          f"got {table.shape}")

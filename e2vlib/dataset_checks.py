@@ -39,6 +39,12 @@ class DatasetError(ValueError):
     sample or row, and the fix."""
 
 
+def npz_problem(err: Exception) -> str:
+    """What ``np.load`` found wrong, without its advice to unpickle: it calls any file that
+    is not a zip or ``.npy`` "pickled data", and e2vlib never unpickles."""
+    return "neither a zip of arrays nor a .npy file" if "pickle" in str(err) else str(err)
+
+
 def rebuild_hint(root: str | os.PathLike) -> str:
     """The command that finishes (resumably) the build of the dataset in ``root``."""
     return f"`python -m e2vlib make-data --out {root} ...` with its settings (resumable)"

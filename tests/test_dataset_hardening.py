@@ -247,8 +247,9 @@ def test_garbage_sample_files_name_the_file(data, content, says):
     path = data / "samples" / f"{sample_id}.npz"
     path.write_bytes(content)
     dataset = E2VDataset(data, "train")
-    with pytest.raises(DatasetError, match=f"{path}: {says}"):
+    with pytest.raises(DatasetError, match=f"{path}: {says}") as info:
         dataset[dataset.ids.index(sample_id)]
+    assert "allow_pickle" not in str(info.value)  # no advice to load it unsafely
 
 
 def test_a_single_npy_array_named_npz_is_refused(tmp_path):
