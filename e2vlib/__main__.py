@@ -261,17 +261,22 @@ def _merge_data(args: argparse.Namespace) -> int:
 
 
 def _verify_data(args: argparse.Namespace) -> int:
-    from e2vlib.data import verify_dataset
+    from e2vlib.data import build_command, verify_dataset
 
-    checked, problems = verify_dataset(args.data)
+    checked, problems, unhashed = verify_dataset(args.data)
     for problem in problems:
         print(f"bad: {problem}")
     if problems:
         raise CommandError(f"{len(problems)} of {checked} samples of {args.data} are bad (listed "
-                           "above); delete those files and rebuild them with make-data --out "
-                           f"{args.data} (resumable), then rerun verify-data")
-    print(f"verified {args.data}: all {checked} samples load as config.json says and match "
-          "the manifest's sha256")
+                           "above); delete those files and rebuild them with "
+                           f"{build_command(args.data)} (resumable), then rerun verify-data")
+    if unhashed:
+        print(f"checked {args.data}: all {checked} samples load as config.json says; the "
+              f"manifest records no sha256 for {unhashed} of them (an older build), so their "
+              f"contents could not be checked: record them with {build_command(args.data)}")
+    else:
+        print(f"verified {args.data}: all {checked} samples load as config.json says and "
+              "match the manifest's sha256")
     return 0
 
 

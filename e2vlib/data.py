@@ -36,6 +36,7 @@ import zipfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -915,6 +916,14 @@ class E2VDataset(Dataset):
         if not self.items:
             raise DatasetError(f"{self.root}: no samples in split {split!r}")
         if verify:
+            unhashed = [i for i, (sample_id, _, _) in enumerate(self.items)
+                        if self.layout == "e2vlib" and sample_id not in self.digests]
+            if unhashed:
+                raise DatasetError(
+                    f"{self.root / 'manifest.csv'} records no sha256 for {len(unhashed)} of "
+                    f"{len(self.items)} {split} samples (an older build), so verify=True cannot "
+                    f"check them; record them with {build_command(self.root)} (it adds only "
+                    "what is missing), or load without verify")
             problems = [p for i in range(len(self.items)) if (p := self.check_item(i))]
             if problems:
                 raise DatasetError(f"{len(problems)} of {len(self.items)} {split} samples of "
@@ -923,18 +932,16 @@ class E2VDataset(Dataset):
 
     def check_item(self, index: int) -> str | None:
         """What is wrong with item ``index`` (it does not load as config.json says, or its
-        arrays differ from the manifest's ``sha256``), or None when it is sound."""
+        arrays differ from the ``sha256`` the manifest recorded, where it recorded one), or
+        None when it is sound."""
         try:
             self.arrays(index)
             sample_id, _, path = self.items[index]
             recorded = self.digests.get(sample_id)
-            if self.layout == "e2vlib" and recorded is None:
-                return (f"{path}: the manifest records no sha256 to check it against (an "
-                        f"older build); rerun make-data --out {self.root} to record them")
             if recorded is not None and npz_digest(path) != recorded:
                 return (f"{path} does not match the sha256 its manifest recorded (changed or "
                         "damaged since it was built); delete it and rebuild it with "
-                        f"{rebuild_hint(self.root)}")
+                        f"{build_command(self.root)}")
         except (DatasetError, ValueError) as err:
             return " ".join(str(err).split())
         return None
@@ -1000,7 +1007,7 @@ class E2VDataset(Dataset):
         except FileNotFoundError:
             raise DatasetError(f"sample {sample_id!r} listed in {self.root / 'manifest.csv'} "
                                f"is missing on disk ({path}); rebuild it with "
-                               f"{rebuild_hint(self.root)}") from None
+                               f"{build_command(self.root)}") from None
 
     def grey_video(self, index: int) -> np.ndarray:
         """Grey video of item ``index``, uint8 ``(D, H, W)`` (:func:`load_grey_video`);
@@ -1024,27 +1031,48 @@ class E2VDataset(Dataset):
         }
 
 
-def verify_dataset(root: str | os.PathLike) -> tuple[int, list[str]]:
-    """Check every sample of every split of ``root`` (:meth:`E2VDataset.check_item`:
-    it loads as config.json says and matches the manifest's ``sha256``); return
-    ``(samples checked, problems)``, one line per bad sample. A manifest or config.json
-    that cannot be read raises :class:`DatasetError`. What ``verify-data`` runs."""
+def build_command(root: str | os.PathLike) -> str:
+    """The make-data command (quoted) that finishes the build of ``root``, spelled out from
+    its config.json where that is a full build config; a generic one otherwise."""
+    try:
+        return f"`{make_data_command(BuildConfig.from_dict(read_config(root)), root)}`"
+    except (TypeError, ValueError):
+        return rebuild_hint(root)
+
+
+class Verification(NamedTuple):
+    """What :func:`verify_dataset` found: ``checked`` samples, one line per bad one in
+    ``problems``, and how many of them had no ``sha256`` in the manifest (``unhashed``:
+    an older build; only their shapes could be checked)."""
+
+    checked: int
+    problems: list[str]
+    unhashed: int
+
+
+def verify_dataset(root: str | os.PathLike) -> Verification:
+    """Check every sample of every split of ``root`` (:meth:`E2VDataset.check_item`: it
+    loads as config.json says and matches the manifest's ``sha256`` where one is
+    recorded). A manifest or config.json that cannot be read raises :class:`DatasetError`.
+    What ``python -m e2vlib verify-data`` runs."""
     root = Path(root)
     if (root / "manifest.csv").exists():
-        present = {row["split"] for row in read_manifest(root)}
+        rows = read_manifest(root)
+        present = {row["split"] for row in rows}
+        unhashed = sum(not row.get("sha256") for row in rows)
     elif root.is_dir():
-        present = {split for *_, split in synthevox3d_items(root)}
+        present, unhashed = {split for *_, split in synthevox3d_items(root)}, 0
     else:
         raise FileNotFoundError(f"dataset folder {root} does not exist")
     if not present:
         raise DatasetError(f"{root / 'manifest.csv'} lists no samples; build them with "
-                           f"{rebuild_hint(root)}")
+                           f"{build_command(root)}")
     checked, problems = 0, []
     for split in (s for s in SPLITS if s in present):
         dataset = E2VDataset(root, split)
         checked += len(dataset)
         problems += [p for i in range(len(dataset)) if (p := dataset.check_item(i))]
-    return checked, problems
+    return Verification(checked, problems, unhashed)
 
 
 def synthevox3d_items(root: Path) -> list[tuple[str, str, Path, str]]:

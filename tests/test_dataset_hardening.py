@@ -278,16 +278,16 @@ def test_verify_checks_the_manifest_sha256(data, built):
                                            r".npz does not match the sha256 its manifest "
                                            r"recorded"):
         E2VDataset(data, "train", verify=True)
-    checked, problems = verify_dataset(data)
+    checked, problems, _ = verify_dataset(data)
     assert checked == 6 and len(problems) == 1 and sample_id in problems[0]
-    assert verify_dataset(built) == (6, [])
+    assert verify_dataset(built) == (6, [], 0)
 
 
 def test_verify_names_every_bad_sample(data):
     ids = [r["id"] for r in _rows(data)]
     (data / "samples" / f"{ids[0]}.npz").unlink()
     (data / "samples" / f"{ids[3]}.npz").write_bytes(b"junk")
-    checked, problems = verify_dataset(data)
+    checked, problems, _ = verify_dataset(data)
     assert checked == 6 and len(problems) == 2
     assert any(f"'{ids[0]}'" in p and "missing on disk" in p for p in problems)
     assert any(f"{ids[3]}.npz: corrupted" in p for p in problems)
@@ -299,8 +299,15 @@ def test_verify_needs_the_sha256_column(data):
         del row["sha256"]
     _write_rows(data, rows)
     assert len(E2VDataset(data, "train")) == 2  # older manifests read as before
-    with pytest.raises(DatasetError, match="records no sha256"):
+    with pytest.raises(DatasetError, match=r"records no sha256 for 2 of 2 train samples \(an "
+                                           r"older build\), so verify=True cannot check them; "
+                                           rf"record them with `python -m e2vlib make-data "
+                                           rf"--out {data} --categories chair,table"):
         E2VDataset(data, "train", verify=True)
+    # verify_dataset checks what it can (shapes) and counts what it could not
+    assert verify_dataset(data) == (6, [], 6)
+    build_dataset(data, TINY, progress=False)  # the command named: records the digests
+    assert verify_dataset(data) == (6, [], 0)
 
 
 # --- config.json values -----------------------------------------------------------------------
@@ -622,7 +629,7 @@ def test_a_build_killed_mid_sample_resumes_into_a_verified_dataset(built, tmp_pa
     assert len(whole) == 2  # two whole samples, no third
     build_dataset(root, TINY, progress=False)  # the rerun
     assert not list(root.rglob("*.tmp*"))  # the killed run's temporary file is gone
-    assert verify_dataset(root) == (6, [])
+    assert verify_dataset(root) == (6, [], 0)
     digests = {r["id"]: r["sha256"] for r in read_manifest(root)}
     assert digests == {r["id"]: r["sha256"] for r in read_manifest(built)}
 
