@@ -187,7 +187,8 @@ def available_memory() -> int | None:
 
 def frames_memory_limit() -> tuple[int, str]:
     """``(bytes, why)``: the largest frame stack :func:`accumulate` makes here, the smaller
-    of :data:`MAX_FRAMES_BYTES` and half the memory available now."""
+    of :data:`MAX_FRAMES_BYTES` and half the memory available now. :func:`accumulate`
+    asks only for stacks over 256 MiB; smaller ones are always made."""
     available = available_memory()
     if available is not None and available // 2 < MAX_FRAMES_BYTES:
         return available // 2, (f"half the {available / 2**30:.1f} GiB of memory available "
@@ -301,11 +302,12 @@ def accumulate(
             n = len(bounds) - 1 if n_wanted is None else n_wanted
     frame_elements = channels * height * width
     itemsize = 1 if mode == "binary" else 4
-    limit, why = frames_memory_limit()
-    if n * frame_elements * itemsize > limit:
+    wanted = n * frame_elements * itemsize
+    limit, why = frames_memory_limit() if wanted > 2**28 else (wanted, "")  # 256 MiB: fine
+    if wanted > limit:
         raise EventError(
             f"{n} frames of {frame_elements} values would take "
-            f"{n * frame_elements * itemsize / 2**30:.2f} GiB (limit "
+            f"{wanted / 2**30:.2f} GiB (limit "
             f"{limit / 2**30:.2f} GiB: {why}); check sensor_size, dt_us and "
             f"t0_us against the event times ({int(t[0]) if len(t) else 0}.."
             f"{int(t[-1]) if len(t) else 0} us) or pass n_frames")
