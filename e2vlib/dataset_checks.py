@@ -82,6 +82,9 @@ def inside(root: Path, path: Path) -> Path:
 
 def _read_text(path: Path, limit: int, what: str) -> str:
     """The UTF-8 text of ``path`` (at most ``limit`` bytes), or a DatasetError naming it."""
+    if path.is_dir():
+        raise DatasetError(f"{path} is a folder, not a {what} file; remove it and rebuild "
+                           f"the dataset with {rebuild_hint(path.parent)}")
     if not path.is_file():
         raise DatasetError(f"{path} is missing: {path.parent} is not a complete dataset; "
                            f"rebuild it with {rebuild_hint(path.parent)}")

@@ -349,6 +349,9 @@ def test_a_missing_config_names_the_file(data):
     (data / "config.json").unlink()
     with pytest.raises(DatasetError, match=f"{data / 'config.json'} is missing: .*rebuild"):
         E2VDataset(data, "train")
+    (data / "config.json").mkdir()
+    with pytest.raises(DatasetError, match=f"{data / 'config.json'} is a folder, not a config"):
+        E2VDataset(data, "train")
 
 
 # --- manifest rows ------------------------------------------------------------------------------
