@@ -230,6 +230,12 @@ def _make_data(args: argparse.Namespace) -> int:
         raise UsageError(f"--shard: {err}") from None
     config = _build_config(args)
     _output_folder(args.out, "--out")
+    if args.real_meshes is not None:  # the real-mesh test set (e2vlib.real_meshes)
+        from e2vlib.real_meshes import build_real_dataset
+
+        manifest = build_real_dataset(args.out, config, args.real_meshes, workers=args.workers)
+        print(f"manifest: {manifest}")
+        return 0
     check_build_folder(args.out, config)
     print(describe_build(args.out, config, shard), flush=True)
     manifest = build_dataset(args.out, config, workers=args.workers, shard=shard)
@@ -614,6 +620,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=positive, default=1, help="parallel processes (default 1)")
     p.add_argument("--shard", default="0/1", help="build only shard i of n, e.g. 2/8 "
                    "(join shard folders with merge-data)")
+    p.add_argument("--real-meshes", metavar="CATALOGUE",
+                   help="build the real-mesh test set of this reviewed catalogue (e.g. "
+                   "data_small/real/catalogue.csv; needs apt-get install "
+                   "sweethome3d-furniture) instead of procedural shapes")
     p.set_defaults(func=_make_data)
 
     p = sub.add_parser("merge-data", help="merge the folders of make-data --shard runs into "
