@@ -37,7 +37,11 @@ from e2vlib import paper
 FURNITURE_DIR = Path("/usr/share/sweethome3d/furniture")
 """Where Debian's ``sweethome3d-furniture`` installs its ``.sh3f`` libraries."""
 INSTALL_HINT = "apt-get install sweethome3d-furniture"
-"""The install step the real-mesh test set needs (Debian's package, about 130 MB)."""
+"""The install step the real-mesh test set needs (Debian's package, about 130 MB; its
+aircraft also need ``crrcsim-data``, :data:`CRRCSIM_INSTALL_HINT`)."""
+CRRCSIM = "crrcsim-data"
+"""The ``library`` of mapping rows whose model is an AC3D aircraft of Debian's crrcsim-data
+(``entry_id``: the ``.ac`` file name in :data:`CRRCSIM_DIR`)."""
 CATALOGUE_FILE = "PluginFurnitureCatalog.properties"
 """The catalogue inside an ``.sh3f`` zip (Java properties, ISO-8859-1)."""
 MAPPING_CSV = Path(__file__).resolve().parent.parent / "data_small" / "real" / "catalogue.csv"
@@ -62,20 +66,31 @@ LIBRARY_CODES = {
     "KatorLegaz.sh3f": "kl",
     "Reallusion.sh3f": "rl",
     "Scopia.sh3f": "sc",
+    CRRCSIM: "crrc",
 }
 """Short code of each library, used in our ids (``chair_bs0_armchair``)."""
-LICENCES = ("CC0-1.0", "CC-BY-3.0", "CC-BY-3.0-US")
-"""Licences a mapped entry may carry (SPDX names)."""
+LICENCES = ("CC0-1.0", "CC-BY-3.0", "CC-BY-3.0-US", "GPL-2.0")
+"""Licences a mapped entry may carry (SPDX names). GPL-2.0 is only that of Debian's
+``crrcsim-data`` aircraft (:data:`CRRCSIM`), which are read where the package installs them
+and never shipped; models that ship in ``data_small/real/meshes`` are CC0."""
 LIBRARY_LICENCES = {
     "BlendSwap-CC-0.sh3f": "CC0-1.0",
     "BlendSwap-CC-BY.sh3f": "CC-BY-3.0",
     "KatorLegaz.sh3f": "CC-BY-3.0-US",
     "Reallusion.sh3f": "CC-BY-3.0-US",
     "Scopia.sh3f": "CC-BY-3.0",
+    CRRCSIM: "GPL-2.0",
 }
-"""Each library's licence, as its ``LICENSE.TXT`` and Debian's copyright file state it."""
+"""Each library's licence, as its ``LICENSE.TXT`` and Debian's copyright file state it
+(``crrcsim-data``: its copyright file, ``Files: *``)."""
 MAX_MODEL_BYTES = 64 << 20
 """Largest OBJ member read from a library (the biggest installed one is about 20 MB)."""
+
+CRRCSIM_DIR = Path("/usr/share/games/crrcsim/objects")
+"""Where Debian's ``crrcsim-data`` installs its AC3D (``.ac``) model aircraft."""
+CRRCSIM_INSTALL_HINT = "apt-get install crrcsim-data"
+CRRCSIM_COPYRIGHT = "/usr/share/doc/crrcsim-data/copyright"
+CRRCSIM_CREATOR = "CRRCSim contributors (Debian copyright: J. E. Kansky, M. Drela, B. Jackson)"
 
 SH3D_TO_ZUP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
 """Sweet Home 3D models are y up with the front towards +z; this rotation (+90 degrees
@@ -313,7 +328,8 @@ def load_entry_mesh(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE
     (the default) also
     :func:`e2vlib.shapes.normalize_mesh` (bounding box centred, longest side 1, in m).
 
-    ``folder`` holds the ``.sh3f`` libraries (Debian's package by default). Raises
+    ``folder`` holds the ``.sh3f`` libraries (Debian's package by default); an entry of
+    :data:`CRRCSIM` is read from its AC3D file (:func:`ac3d_to_mesh`). Raises
     FileNotFoundError naming the install step when the library is absent and
     :class:`RealMeshError` when its model cannot be read.
     """
@@ -321,6 +337,14 @@ def load_entry_mesh(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE
 
     if pose not in POSES:
         raise ValueError(f"pose must be one of {', '.join(POSES)}, got {pose!r}")
+    if entry.library == CRRCSIM:  # an AC3D file on disk (entry.model: its path)
+        path = Path(entry.model)
+        if not path.is_file():
+            raise FileNotFoundError(f"{path} not found: crrcsim-data is not installed; "
+                                    f"{CRRCSIM_INSTALL_HINT}")
+        mesh = ac3d_to_mesh(path.read_text(encoding="latin-1"), str(path))
+        mesh.apply_transform(POSES[pose] @ SH3D_TO_ZUP)  # AC3D is y up too, nose to +z
+        return normalize_mesh(mesh) if normalize else mesh
     path = Path(folder) / entry.library
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found: sweethome3d-furniture is not installed; "
@@ -361,7 +385,10 @@ def entry_licence(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE_D
     (:func:`licence_from_text`; Blend Swap models carry one, and it can differ from the
     library's: two models of the CC0 library are CC-BY 3.0), else the library's licence
     (:data:`LIBRARY_LICENCES`, from its ``LICENSE.TXT``). ``licence`` is None when the
-    model's own file names no allowed licence."""
+    model's own file names no allowed licence. A :data:`CRRCSIM` entry has the package's
+    licence, stated in its Debian copyright file."""
+    if entry.library == CRRCSIM:
+        return entry.licence, CRRCSIM_COPYRIGHT
     model_dir = posixpath.dirname(entry.model) + "/"
     with zipfile.ZipFile(Path(folder) / entry.library) as zf:
         files = sorted(n for n in zf.namelist() if n.startswith(model_dir)
@@ -418,6 +445,8 @@ def check_mapping(rows: Iterable[dict], where: str = "catalogue.csv") -> list[Ma
                             f"{', '.join(LICENCES)}")
         if row["library"] not in LIBRARY_LICENCES:
             problems.append(f"line {line}: unknown library {row['library']!r}")
+        if row["licence"] == "GPL-2.0" and row["library"] != CRRCSIM:
+            problems.append(f"line {line}: GPL-2.0 is allowed only for {CRRCSIM} rows")
         if not row["licence_file"].strip():
             problems.append(f"line {line}: licence_file is empty (name the file stating it)")
         if row["pose"] not in POSES:
@@ -448,13 +477,35 @@ def read_mapping(path: str | os.PathLike = MAPPING_CSV, kept_only: bool = True
     return [r for r in rows if r.keep or not kept_only]
 
 
-def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE_DIR
+def crrcsim_entry(file_name: str, crrcsim_folder: str | os.PathLike = CRRCSIM_DIR
+                  ) -> CatalogueEntry:
+    """The :class:`CatalogueEntry` of the AC3D model ``file_name`` of crrcsim-data."""
+    path = Path(crrcsim_folder) / file_name
+    if Path(file_name).name != file_name or path.suffix != ".ac":
+        raise RealMeshError(f"crrcsim-data entry {file_name!r} must be a plain .ac file name")
+    return CatalogueEntry(library=CRRCSIM, number=0, entry_id=file_name, name=path.stem,
+                          category="aircraft", creator=CRRCSIM_CREATOR, model=str(path),
+                          size_cm=None, rotation=None, licence=LIBRARY_LICENCES[CRRCSIM])
+
+
+def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE_DIR,
+            crrcsim_folder: str | os.PathLike = CRRCSIM_DIR
             ) -> list[tuple[MappedEntry, CatalogueEntry]]:
-    """Each mapping row with its catalogue entry from the installed libraries. Raises
-    :class:`RealMeshError` naming rows whose entry is not there (another package version)."""
+    """Each mapping row with its catalogue entry from the installed libraries (``.sh3f``
+    files in ``folder``; crrcsim-data's AC3D files in ``crrcsim_folder``). Raises
+    :class:`RealMeshError` naming rows whose entry is not there (another package version)
+    and FileNotFoundError naming the install step of a package that is absent."""
     mapped = list(mapped)
     catalogues = {}
     for lib in sorted({m.library for m in mapped}):
+        if lib == CRRCSIM:
+            if not Path(crrcsim_folder).is_dir():
+                raise FileNotFoundError(f"{crrcsim_folder} not found: crrcsim-data is not "
+                                        f"installed; {CRRCSIM_INSTALL_HINT}")
+            catalogues[lib] = {m.entry_id: crrcsim_entry(m.entry_id, crrcsim_folder)
+                               for m in mapped if m.library == lib
+                               and (Path(crrcsim_folder) / m.entry_id).is_file()}
+            continue
         catalogues[lib] = {e.entry_id: e for e in read_catalogue(Path(folder) / lib)}
     missing = [m.id for m in mapped if m.entry_id not in catalogues[m.library]]
     if missing:
@@ -467,7 +518,8 @@ def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE
 # --- building the samples ----------------------------------------------------------------
 
 
-BUILD_COMMAND = ("apt-get install -y sweethome3d-furniture && python -m e2vlib make-data "
+BUILD_COMMAND = ("apt-get install -y sweethome3d-furniture crrcsim-data && "
+                 "python -m e2vlib make-data "
                  "--preset small --real-meshes data_small/real/catalogue.csv "
                  "--out cache/real_meshes")
 """The recorded command that builds the real-mesh test set (install step first)."""
@@ -575,3 +627,108 @@ def build_real_dataset(root: str | os.PathLike, config,
             bar.update()
     bar.close()
     return write_manifest(root, specs)
+
+
+# --- AC3D models (Debian's crrcsim-data) -------------------------------------------------
+
+
+
+
+def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
+    """The polygons of AC3D text (``AC3Db`` files) as one ``trimesh.Trimesh``, as stored.
+
+    Objects nest (``kids``); each object's vertices are moved by its ``loc`` and those of
+    its parents (and turned by a ``rot`` matrix where one is given, applied to column
+    vectors). Polygon surfaces (``SURF`` type 0) are fanned into triangles; line surfaces
+    (types 1 and 2) have no area and are left out. Materials and textures are not read.
+    Raises :class:`RealMeshError` naming ``where`` and the line for text that does not
+    parse or holds no polygon.
+    """
+    lines = text.splitlines()
+    if not lines or not lines[0].startswith("AC3D"):
+        raise RealMeshError(f"{where}: not an AC3D file (no AC3D header)")
+    vertices: list[np.ndarray] = []
+    faces: list[list[int]] = []
+    pos = 1
+
+    def fail(message: str) -> RealMeshError:
+        return RealMeshError(f"{where} line {pos + 1}: {message}")
+
+    def numbers(line: str, count: int) -> list[float]:
+        try:
+            values = [float(v) for v in line.split()[:count]]
+        except ValueError:
+            values = []
+        if len(values) != count or not all(np.isfinite(values)):
+            raise fail(f"expected {count} numbers, got {line!r}")
+        return values
+
+    def read_object(parent: np.ndarray) -> None:
+        nonlocal pos
+        local, own, kids = np.eye(4), None, 0
+        while pos < len(lines):
+            line = lines[pos].strip()
+            word = line.split(" ", 1)[0]
+            pos += 1
+            if word == "loc":
+                local[:3, 3] = numbers(line[4:], 3)
+            elif word == "rot":
+                local[:3, :3] = np.reshape(numbers(line[4:], 9), (3, 3))
+            elif word == "data":
+                pos += 1  # the data string's line
+            elif word == "numvert":
+                n = int(numbers(line[8:], 1)[0])
+                own = np.array([numbers(lines[pos + k], 3) for k in range(n)])
+                pos += n
+            elif word == "numsurf":
+                for _ in range(int(numbers(line[8:], 1)[0])):
+                    pos = _read_surface(lines, pos, faces, sum(map(len, vertices)),
+                                        0 if own is None else len(own), fail)
+            elif word == "kids":
+                kids = int(numbers(line[5:], 1)[0])
+                break
+        transform = parent @ local
+        if own is not None and len(own):
+            vertices.append(trimesh.transform_points(own, transform))
+        for _ in range(kids):
+            while pos < len(lines) and not lines[pos].startswith("OBJECT"):
+                pos += 1
+            if pos == len(lines):
+                raise fail("fewer objects than its kids line says")
+            pos += 1
+            read_object(transform)
+
+    while pos < len(lines) and not lines[pos].startswith("OBJECT"):
+        pos += 1
+    if pos == len(lines):
+        raise RealMeshError(f"{where}: no OBJECT in the file")
+    pos += 1
+    read_object(np.eye(4))
+    if not faces:
+        raise RealMeshError(f"{where}: the file holds no polygon surface")
+    return trimesh.Trimesh(np.concatenate(vertices), np.array(faces), process=True)
+
+
+def _read_surface(lines: list[str], pos: int, faces: list[list[int]], offset: int,
+                  n_vertices: int, fail) -> int:
+    """Read one ``SURF`` block from line ``pos``; fan its polygon into ``faces`` (vertex
+    indices shifted by ``offset``); return the line after it."""
+    if not lines[pos].startswith("SURF"):
+        raise fail(f"expected SURF, got {lines[pos]!r}")
+    try:
+        kind = int(lines[pos].split()[1], 16) & 0xF
+    except (IndexError, ValueError):
+        raise fail(f"bad SURF flags {lines[pos]!r}") from None
+    pos += 1
+    while pos < len(lines) and not lines[pos].startswith("refs"):
+        pos += 1  # mat
+    if pos == len(lines):
+        raise fail("a SURF without refs")
+    n = int(lines[pos].split()[1])
+    refs = [int(lines[pos + 1 + k].split()[0]) for k in range(n)]
+    if any(not 0 <= r < n_vertices for r in refs):
+        raise fail(f"a surface refers to vertices outside 0..{n_vertices - 1}")
+    if kind == 0:
+        faces.extend([offset + refs[0], offset + refs[k], offset + refs[k + 1]]
+                     for k in range(1, n - 1))
+    return pos + 1 + n

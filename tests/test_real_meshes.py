@@ -17,14 +17,18 @@ import trimesh
 from e2vlib import paper
 from e2vlib.data import BuildConfig, E2VDataset, build_dataset
 from e2vlib.real_meshes import (
+    CRRCSIM,
+    CRRCSIM_DIR,
     FURNITURE_DIR,
     LICENCES,
     MAPPING_CSV,
     MAPPING_FIELDS,
     POSES,
     RealMeshError,
+    ac3d_to_mesh,
     build_real_dataset,
     check_mapping,
+    crrcsim_entry,
     entry_licence,
     installed_libraries,
     licence_from_text,
@@ -36,10 +40,11 @@ from e2vlib.real_meshes import (
 )
 from e2vlib.real_study import format_real_table, interval95, run_real_study, summarize_real
 
-INSTALLED = FURNITURE_DIR.is_dir() and any(FURNITURE_DIR.glob("*.sh3f"))
+INSTALLED = (FURNITURE_DIR.is_dir() and any(FURNITURE_DIR.glob("*.sh3f"))
+             and CRRCSIM_DIR.is_dir())
 needs_package = pytest.mark.skipif(
-    not INSTALLED, reason="Debian's sweethome3d-furniture is not installed "
-    "(apt-get install sweethome3d-furniture)")
+    not INSTALLED, reason="Debian's sweethome3d-furniture and crrcsim-data are not installed "
+    "(apt-get install sweethome3d-furniture crrcsim-data)")
 
 # An OBJ box of 2 (x) x 1 (y, up) x 4 (z, front) units in two parts: the box, and a small
 # marker cube in front of it (+z, Sweet Home 3D's front) at mid height.
@@ -229,6 +234,92 @@ def test_a_missing_model_or_library_names_the_fix(tmp_path):
         load_entry_mesh(lost, tmp_path)
 
 
+AC3D = """AC3Db
+MATERIAL "m" rgb 1 1 1  amb 0.2 0.2 0.2  emis 0 0 0  spec 0 0 0  shi 10  trans 0
+OBJECT world
+kids 2
+OBJECT poly
+name "quad"
+loc 1 0 0
+numvert 4
+0 0 0
+1 0 0
+1 1 0
+0 1 0
+numsurf 2
+SURF 0x10
+mat 0
+refs 4
+0 0 0
+1 1 0
+2 1 1
+3 0 1
+SURF 0x2
+mat 0
+refs 2
+0 0 0
+1 0 0
+kids 1
+OBJECT poly
+name "child"
+loc 0 0 5
+numvert 3
+0 0 0
+1 0 0
+0 1 0
+numsurf 1
+SURF 0x30
+mat 0
+refs 3
+0 0 0
+1 0 0
+2 0 0
+kids 0
+OBJECT poly
+name "second"
+data 5
+hello
+numvert 3
+-1 -1 -1
+0 0 -1
+0 -1 -1
+numsurf 1
+SURF 0x0
+mat 0
+refs 3
+0 0 0
+1 0 0
+2 0 0
+kids 0
+"""
+
+
+def test_ac3d_objects_nest_their_locations_and_lines_are_left_out():
+    mesh = ac3d_to_mesh(AC3D)
+    assert len(mesh.faces) == 4  # the quad fanned into 2, the child's and second's 1 each
+    assert np.allclose(mesh.bounds, [[-1, -1, -1], [2, 1, 5]])  # child at (1, 0, 0) + (0, 0, 5)
+    assert np.allclose(sorted(mesh.area_faces), [0.5, 0.5, 0.5, 0.5])
+    with pytest.raises(RealMeshError, match="not an AC3D file"):
+        ac3d_to_mesh("OBJECT world\n")
+    with pytest.raises(RealMeshError, match="line 9: expected 3 numbers"):
+        ac3d_to_mesh(AC3D.replace("0 0 0\n1 0 0\n1 1 0", "0 0 0\n1 zero 0\n1 1 0", 1))
+    with pytest.raises(RealMeshError, match="outside 0..3"):
+        ac3d_to_mesh(AC3D.replace("3 0 1", "7 0 1"))
+
+
+def test_a_crrcsim_entry_is_an_ac3d_file_with_the_package_licence(tmp_path):
+    (tmp_path / "plane.ac").write_text(AC3D)
+    entry = crrcsim_entry("plane.ac", tmp_path)
+    assert (entry.library, entry.name, entry.licence) == (CRRCSIM, "plane", "GPL-2.0")
+    assert entry_licence(entry)[0] == "GPL-2.0"
+    mesh = load_entry_mesh(entry)
+    assert np.allclose(mesh.extents, [0.5, 1.0, 1 / 3])  # AC3D y up: (3, 2, 6) -> x, z, y
+    with pytest.raises(RealMeshError, match="plain .ac file name"):
+        crrcsim_entry("../plane.ac", tmp_path)
+    with pytest.raises(FileNotFoundError, match="apt-get install crrcsim-data"):
+        load_entry_mesh(crrcsim_entry("plane.ac", tmp_path / "gone"))
+
+
 # --- licences ------------------------------------------------------------------------------
 
 
@@ -256,7 +347,7 @@ def test_mapping_rows_are_checked_each_with_its_line():
     assert good[0].keep and good[0].category == "table"
     cases = [
         (mapping_row(category="bookshelf", id="bookshelf_x"), "is not one of the paper's"),
-        (mapping_row(licence="GPL-2.0"), "licence 'GPL-2.0' is not one of"),
+        (mapping_row(licence="MIT"), "licence 'MIT' is not one of"),
         (mapping_row(id="chair_bs0_box"), "must start with its category"),
         (mapping_row(id="Table/../x"), "not a plain lower-case name"),
         (mapping_row(pose="tilted"), "pose 'tilted'"),
@@ -264,6 +355,7 @@ def test_mapping_rows_are_checked_each_with_its_line():
         (mapping_row(note=" "), "note is empty"),
         (mapping_row(library="Other.sh3f"), "unknown library"),
         (mapping_row(licence_file=""), "licence_file is empty"),
+        (mapping_row(licence="GPL-2.0"), "GPL-2.0 is allowed only for crrcsim-data rows"),
     ]
     for row, message in cases:
         with pytest.raises(RealMeshError) as err:
@@ -279,6 +371,7 @@ def test_the_committed_catalogue_is_well_formed():
     assert len({r.id for r in rows}) == len(rows)
     assert all(r.category in paper.CATEGORIES for r in rows)
     assert all(r.licence in LICENCES for r in rows)
+    assert all(r.library == CRRCSIM for r in rows if r.licence == "GPL-2.0")
     assert all(r.note.startswith("looked:") for r in kept)
     assert all(r.note.startswith("dropped:") for r in rows if not r.keep)
     assert len(kept) >= 100
@@ -416,3 +509,20 @@ def test_summary_and_intervals_have_known_answers():
     assert list(summary["a"]["per_category"]) == ["airplane", "chair"]  # the paper's order
     assert summary["a"]["per_category"]["chair"]["mean"] == pytest.approx(0.3)
     assert summary["a"]["overall"]["n"] == 3 and summary["b"]["overall"]["n"] == 1
+
+
+def test_the_shipped_meshes_are_small_cc0_models_of_the_catalogue():
+    from e2vlib.shapes import load_mesh
+
+    folder = MAPPING_CSV.parent / "meshes"
+    rows = {r.id: r for r in read_mapping()}
+    files = sorted(folder.glob("*.ply"))
+    readme = (folder / "README.md").read_text()
+    assert 3 <= len(files) <= 5
+    for path in files:
+        row = rows[path.stem]
+        assert row.licence == "CC0-1.0" and path.stat().st_size < 200_000
+        assert path.name in readme and row.creator in readme and row.licence_file in readme
+        mesh = load_mesh(path)
+        assert max(mesh.extents) == pytest.approx(1.0)
+        assert np.allclose(mesh.bounds.mean(axis=0), 0.0, atol=1e-6)
