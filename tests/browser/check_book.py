@@ -7,6 +7,7 @@
   nothing from outside the site (a reader offline sees the same page);
 * every lesson page has figures (images), none of them broken (all decoded, non-zero size),
   and every image has alt text or sits in a figure with a caption;
+* every animation steps to another frame when its "Next frame" button is clicked;
 * no page shows an error output or the word "Traceback";
 * the navigation of the front page reaches every lesson of ``notebooks/``;
 * the search page finds "Eq. 5";
@@ -105,7 +106,21 @@ def check_page(page, base: str, path: str, checks: Checks, lesson: bool) -> None
     if lesson:
         checks.check(len(images) > 0, f"{path}: {len(images)} figures")
     checks.check(not broken, f"{path}: no broken image {broken[:3]}")
+    players = page.query_selector_all("img[id^='_anim_img']")
+    if players:
+        checks.check(all(animation_steps(page, img) for img in players),
+                     f"{path}: {len(players)} animation(s) step to another frame")
     checks.check(not unlabelled, f"{path}: every image has alt text or a caption {unlabelled[:3]}")
+
+
+def animation_steps(page, img) -> bool:
+    """Click the "Next frame" button of the matplotlib player around ``img``; True when the
+    picture changes."""
+    before = img.get_attribute("src")
+    player = img.evaluate_handle("i => i.closest('.animation')")
+    player.as_element().query_selector("button[title='Next frame']").click()
+    page.wait_for_timeout(200)
+    return img.get_attribute("src") != before
 
 
 def check_navigation(page, base: str, checks: Checks, lessons: list[str]) -> None:
