@@ -544,9 +544,11 @@ def real_config(config, catalogue: str | os.PathLike = MAPPING_CSV,
     catalogue = Path(catalogue)
     d = config.to_dict()
     d.pop("per_category")
-    d["categories"] = [c for c in paper.CATEGORIES
-                       if any(m.category == c for m in read_mapping(catalogue))]
-    d["source"] = {"package": "sweethome3d-furniture", "install": INSTALL_HINT,
+    rows = read_mapping(catalogue)
+    d["categories"] = [c for c in paper.CATEGORIES if any(m.category == c for m in rows)]
+    aircraft = any(m.library == CRRCSIM for m in rows)
+    d["source"] = {"packages": ["sweethome3d-furniture", *([CRRCSIM] if aircraft else [])],
+                   "install": INSTALL_HINT + (" crrcsim-data" if aircraft else ""),
                    "folder": str(folder), "catalogue": str(catalogue),
                    "catalogue_sha256": hashlib.sha256(catalogue.read_bytes()).hexdigest()}
     return d

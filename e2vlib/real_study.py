@@ -200,9 +200,11 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
     if command not in results["commands"]:
         results["commands"].append(command)
     results.update(command=command, build_command=BUILD_COMMAND, cpu=cpu_name(),
-                   package={"sweethome3d-furniture":
-                            _package_version("sweethome3d-furniture")},
-                   torch=torch.__version__)
+                   packages={name: _package_version(name)
+                             for name in ("sweethome3d-furniture", "crrcsim-data")},
+                   source=stored.get("source"), torch=torch.__version__,
+                   missing_categories=[c for c in paper.CATEGORIES
+                                       if c not in stored.get("categories", ())])
     runs = {r["id"]: r for r in results["runs"]}
     methods = [*checkpoints, *BASELINES]
     todo = [i for i, sid in enumerate(test.ids)

@@ -455,6 +455,7 @@ def test_the_real_set_is_a_dataset_of_the_kept_rows(small_sets):
     config = json.loads((real / "config.json").read_text())
     assert config["categories"] == ["table", "telephone"]
     assert config["source"]["install"] == "apt-get install sweethome3d-furniture"
+    assert config["source"]["packages"] == ["sweethome3d-furniture"]
     before = {p.name: p.stat().st_mtime_ns for p in (real / "samples").iterdir()}
     build_real_dataset(real, small_sets["config"], small_sets["catalogue"],
                        small_sets["library"], progress=False)  # resumes: nothing rebuilt
@@ -526,3 +527,11 @@ def test_the_shipped_meshes_are_small_cc0_models_of_the_catalogue():
         mesh = load_mesh(path)
         assert max(mesh.extents) == pytest.approx(1.0)
         assert np.allclose(mesh.bounds.mean(axis=0), 0.0, atol=1e-6)
+
+
+def test_building_without_the_package_names_the_install_step(tmp_path):
+    config = BuildConfig(categories=paper.CATEGORIES, per_category=1, **SETTINGS)
+    with pytest.raises(FileNotFoundError, match="apt-get install sweethome3d-furniture"):
+        build_real_dataset(tmp_path / "out", config, MAPPING_CSV, tmp_path / "no_package",
+                           progress=False)
+    assert not (tmp_path / "out").exists()  # nothing written
