@@ -468,6 +468,9 @@ def read_mapping(path: str | os.PathLike = MAPPING_CSV, kept_only: bool = True
                  ) -> list[MappedEntry]:
     """The reviewed mapping table (:func:`check_mapping`); only the kept rows by default."""
     path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"mapping table {path} not found; the reviewed one is "
+                                "data_small/real/catalogue.csv")
     with open(path, newline="", encoding="utf-8") as f:
         reader = csv.DictReader(f)
         if tuple(reader.fieldnames or ()) != MAPPING_FIELDS:

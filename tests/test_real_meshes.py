@@ -381,6 +381,8 @@ def test_the_committed_catalogue_is_well_formed():
 
 def test_a_mapping_file_with_other_columns_is_refused(tmp_path):
     path = tmp_path / "m.csv"
+    with pytest.raises(FileNotFoundError, match="the reviewed one is"):
+        read_mapping(path)
     path.write_text("id,category\nx,chair\n")
     with pytest.raises(RealMeshError, match="columns must be"):
         read_mapping(path)
