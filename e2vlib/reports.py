@@ -65,6 +65,8 @@ def load_results(study: str, root: str | os.PathLike | None = None) -> dict:
     if not path.exists():
         if study in experiments.STUDIES:
             command = experiments.command_line(study, None, [0, 1, 2], False)
+        elif study == "real_meshes":  # not a training study: it scores models on real meshes
+            from e2vlib.real_study import COMMAND as command
         else:
             command = f"python -m e2vlib experiment {study}"
         raise MissingResultsError(f"no recorded {study!r} study at {path}: run `{command}` "
