@@ -671,3 +671,13 @@ def test_reading_and_verifying_never_write_into_the_dataset(built, tmp_path, cap
         code = main(["make-data", "--out", str(view / "more"), "--categories", "chair",
                      "--per-category", "3", "--resolution", "32", "--frame-size", "16"])
         assert code == 2 and "(permission denied or read-only)" in capsys.readouterr().err
+
+
+def test_the_shipped_data_small_verifies_with_every_sha256():
+    """data_small's manifest records a sha256 per sample, and every file matches it."""
+    from e2vlib.data import verify_dataset
+
+    from .conftest import REPO
+
+    found = verify_dataset(REPO / "data_small")
+    assert (found.checked, found.problems, found.unhashed) == (832, [], 0)
