@@ -27,6 +27,7 @@ import numpy as np
 
 from e2vlib import paper
 from e2vlib.files import atomic_path
+from e2vlib.metrics import interval95
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_OUT = Path("experiments/results")
@@ -765,7 +766,6 @@ def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> lis
     >>> [round(v, 3) for v in row["ci95"]]   # 0.42 -+ 4.303 * 0.02 / sqrt(3)
     [0.37, 0.47]
     """
-    from scipy import stats
 
     if not isinstance(results, dict):
         results = json.loads(Path(results).read_text())
@@ -779,9 +779,7 @@ def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> lis
         row["n"] = len(values)
         row["mean"] = float(values.mean())
         row["std"] = float(values.std(ddof=1)) if len(values) > 1 else float("nan")
-        half = (float(stats.t.ppf(0.975, len(values) - 1)) * row["std"] / np.sqrt(len(values))
-                if len(values) > 1 else float("nan"))
-        row["ci95"] = (float(row["mean"] - half), float(row["mean"] + half))
+        row["ci95"] = interval95(values)
     return list(rows.values())
 
 

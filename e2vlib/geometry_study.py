@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from e2vlib import paper
+from e2vlib import metrics, paper
 from e2vlib.experiments import _commit
 from e2vlib.files import atomic_path
 
@@ -140,7 +140,6 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
 def summarize_geometry(results: dict | str | os.PathLike,
                        metric: str = "iou@0.3") -> list[dict]:
     """Per method: mean of ``metric`` over objects, its 95 % interval (t over objects), n."""
-    from scipy import stats
 
     if not isinstance(results, dict):
         results = json.loads(Path(results).read_text())
@@ -149,8 +148,6 @@ def summarize_geometry(results: dict | str | os.PathLike,
         values = np.array([r["scores"][method][metric] for r in results["runs"]])
         if len(values) == 0:
             continue
-        half = (stats.t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
-                if len(values) > 1 else float("nan"))
         rows.append({"method": method, "n": len(values), "mean": float(values.mean()),
-                     "ci95": (float(values.mean() - half), float(values.mean() + half))})
+                     "ci95": metrics.interval95(values)})
     return rows

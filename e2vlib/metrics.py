@@ -241,6 +241,24 @@ def surface_voxel_fscore(pred, gt, threshold: float = paper.IOU_THRESHOLD,
     return 0.0 if total == 0 else float(2 * precision * recall / total)
 
 
+def interval95(values) -> tuple[float, float]:
+    """95 % interval of the mean of ``values`` (Student's t with n - 1 degrees of freedom);
+    ``(nan, nan)`` for fewer than two values. The one interval of every study and table.
+
+    Examples:
+        >>> low, high = interval95([0.4, 0.5, 0.6])  # mean 0.5, s 0.1, t(0.975, 2) 4.303
+        >>> round(low, 3), round(high, 3)
+        (0.252, 0.748)
+    """
+    from scipy import stats
+
+    v = np.asarray(values, dtype=np.float64).ravel()
+    if len(v) < 2:
+        return (float("nan"), float("nan"))
+    half = float(stats.t.ppf(0.975, len(v) - 1)) * float(v.std(ddof=1)) / np.sqrt(len(v))
+    return (float(v.mean() - half), float(v.mean() + half))
+
+
 def category_means(values, categories) -> dict[str, float]:
     """Mean of per-sample ``values`` ``(N,)`` over the samples of each category.
 

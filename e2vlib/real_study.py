@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from e2vlib import paper
+from e2vlib import metrics, paper
 from e2vlib.files import atomic_path
 
 BASELINES = ("visual_hull", "mean_shape", "category_oracle")
@@ -48,23 +48,13 @@ QUESTION = ("The learned models train on procedural stand-ins of the 13 categori
             "visual hull with known poses, the mean shape and the per-category oracle?")
 
 
-def interval95(values: Sequence[float]) -> tuple[float, float]:
-    """95 % interval of the mean of ``values`` (Student's t over them; NaN for n < 2)."""
-    from scipy import stats
-
-    v = np.asarray(values, dtype=np.float64)
-    if len(v) < 2:
-        return (float("nan"), float("nan"))
-    half = stats.t.ppf(0.975, len(v) - 1) * v.std(ddof=1) / np.sqrt(len(v))
-    return (float(v.mean() - half), float(v.mean() + half))
-
-
 def summarize_real(runs: Sequence[dict], metric: str = "iou@0.3") -> dict:
     """``{method: {"overall": row, "per_category": {category: row}}}`` with rows
     ``{"n", "mean", "ci95"}`` of ``metric`` over the objects holding it, categories in the
     paper's order."""
     def row(values: list[float]) -> dict:
-        return {"n": len(values), "mean": float(np.mean(values)), "ci95": interval95(values)}
+        return {"n": len(values), "mean": float(np.mean(values)),
+                "ci95": metrics.interval95(values)}
 
     methods = list(dict.fromkeys(m for r in runs for m in r["scores"]))
     out = {}

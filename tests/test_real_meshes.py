@@ -16,6 +16,7 @@ import trimesh
 
 from e2vlib import paper
 from e2vlib.data import BuildConfig, E2VDataset, build_dataset
+from e2vlib.metrics import interval95
 from e2vlib.real_meshes import (
     CRRCSIM,
     CRRCSIM_DIR,
@@ -38,7 +39,7 @@ from e2vlib.real_meshes import (
     read_mapping,
     resolve,
 )
-from e2vlib.real_study import format_real_table, interval95, run_real_study, summarize_real
+from e2vlib.real_study import format_real_table, run_real_study, summarize_real
 
 INSTALLED = (FURNITURE_DIR.is_dir() and any(FURNITURE_DIR.glob("*.sh3f"))
              and CRRCSIM_DIR.is_dir())
