@@ -112,8 +112,17 @@ def test_old_configs_and_manifests_read_unchanged():
     assert "grey_video" not in BuildConfig(categories=("chair",), per_category=2,
                                            oversample=1).to_dict()
     assert BuildConfig.from_dict(GREY.to_dict()) == GREY
-    rows = read_manifest(REPO / "data_small")  # written before the sha256 column
+    rows = read_manifest(REPO / "data_small")
+    assert set(rows[0]) == {"id", "category", "split", "seed", "n_events", "sha256"}
+
+
+def test_a_manifest_written_before_the_sha256_column_still_reads(tmp_path):
+    lines = (REPO / "data_small" / "manifest.csv").read_text().splitlines()
+    old = [",".join(line.split(",")[:5]) for line in lines]  # drop the sha256 column
+    (tmp_path / "manifest.csv").write_text("\n".join(old) + "\n")
+    rows = read_manifest(tmp_path)
     assert set(rows[0]) == {"id", "category", "split", "seed", "n_events"}
+    assert len(rows) == len(lines) - 1
 
 
 # --- merging shards --------------------------------------------------------------------------
