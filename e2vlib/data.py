@@ -700,8 +700,6 @@ def build_dataset(
     rewrites the manifest from the sample files present.
     Introduced in notebooks/04_building_the_dataset.ipynb.
     """
-    from tqdm.auto import tqdm
-
     root = Path(root)
     check_build_folder(root, config)
     (root / "samples").mkdir(parents=True, exist_ok=True)
@@ -722,19 +720,26 @@ def build_dataset(
     todo = [s for k, s in enumerate(specs) if k % count == index and s.split in config.splits
             and not _sample_done(root, s.id, config)]
     jobs = [(config, s, str(root), s.id in keep) for s in todo]
-    bar = tqdm(total=len(jobs), desc=f"building {root.name}", unit="sample",
-               disable=not progress)
+    run_jobs(_build_one, jobs, workers, f"building {root.name}", "sample", progress)
+    return write_manifest(root, specs)
+
+
+def run_jobs(work, jobs: list, workers: int, desc: str, unit: str, progress: bool) -> None:
+    """Run ``work(job)`` for every job, in ``workers`` processes when more than one, with a
+    progress bar of ``unit``s."""
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=len(jobs), desc=desc, unit=unit, disable=not progress)
     if workers > 1 and len(jobs) > 1:
         # "spawn": each worker starts a fresh interpreter with its own VTK/OpenGL state.
         with multiprocessing.get_context("spawn").Pool(workers) as pool:
-            for _ in pool.imap_unordered(_build_one, jobs):
+            for _ in pool.imap_unordered(work, jobs):
                 bar.update()
     else:
         for job in jobs:
-            _build_one(job)
+            work(job)
             bar.update()
     bar.close()
-    return write_manifest(root, specs)
 
 
 def _sample_done(root: Path, sample_id: str, config: BuildConfig) -> bool:

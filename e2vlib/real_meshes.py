@@ -584,11 +584,8 @@ def build_real_dataset(root: str | os.PathLike, config,
     Raises FileNotFoundError naming the install step when the package is absent.
     """
     import json
-    import multiprocessing
 
-    from tqdm.auto import tqdm
-
-    from e2vlib.data import SampleSpec, write_manifest
+    from e2vlib.data import SampleSpec, run_jobs, write_manifest
     from e2vlib.dataset_checks import DatasetError
     from e2vlib.files import atomic_path
 
@@ -620,17 +617,7 @@ def build_real_dataset(root: str | os.PathLike, config,
                                 split="test", seed=real_sample_seed(config.seed, mapped.id)))
     jobs = [(config, m, e, str(root), str(folder)) for m, e in pairs
             if not (root / "samples" / f"{m.id}.npz").exists()]
-    bar = tqdm(total=len(jobs), desc=f"building {root.name}", unit="object",
-               disable=not progress)
-    if workers > 1 and len(jobs) > 1:
-        with multiprocessing.get_context("spawn").Pool(workers) as pool:
-            for _ in pool.imap_unordered(_build_real_one, jobs):
-                bar.update()
-    else:
-        for job in jobs:
-            _build_real_one(job)
-            bar.update()
-    bar.close()
+    run_jobs(_build_real_one, jobs, workers, f"building {root.name}", "object", progress)
     return write_manifest(root, specs)
 
 
