@@ -182,8 +182,46 @@ STUDIES: dict[str, Study] = {
         {"ssaa": {}, "none": {"data": RENDER_CACHE}},
         base={"test_data": {"ssaa": "data_small", "none": RENDER_CACHE}},
     ),
+    "stability": Study(
+        "stability",
+        "Some runs of the tiny recipe collapse to a grid that hardly depends on the input "
+        "(time's 128px seed 1, encoder's cnn_gru seed 1). With the learning rate set every "
+        "step and warmed up over the first steps, do 8 seeds of each train without a "
+        "collapse?",
+        {"128px": {"frame_size": 128}, "cnn_gru": {"preset": "tiny_gru"}},
+        base={"recipe": "tiny_step"},
+    ),
+    "capstone": Study(
+        "capstone",
+        "Lessons 09-12 found BCE + Dice, 128 px frames and 200 x 2.5 ms frames ahead of the "
+        "base recipe, one at a time: does each hold with the per-step schedule, does a "
+        "longer budget help, and how far do they carry together?",
+        {"base": {},
+         "bce_dice": {"loss": "bce_dice"},
+         "128px": {"frame_size": 128},
+         "200x2.5ms": {"n_frames": 200, "dt_us": 2_500},
+         "30_epochs": {"epochs": 30},
+         "bce_dice_30_epochs": {"loss": "bce_dice", "epochs": 30}},
+        base={"recipe": "tiny_step"},
+    ),
 }
-"""The studies of issues 12, 13 and 15, by name."""
+"""The studies of issues 12, 13, 15 and 25, by name."""
+
+COLLAPSE_IOU = 0.2
+"""A run whose test IoU@0.3 is below this collapsed: its grid hardly depends on the input
+(collapsed runs scored 0.062; the lowest run that learned, 0.329; the mean shape, a grid
+that ignores the input, 0.126)."""
+
+
+def is_collapsed(record: dict) -> bool:
+    """True when a run record's test IoU@0.3 is below :data:`COLLAPSE_IOU`.
+
+    Examples
+    --------
+    >>> is_collapsed({"metrics": {"iou@0.3": 0.062}}), is_collapsed({"metrics": {"iou@0.3": 0.33}})
+    (True, False)
+    """
+    return record["metrics"]["iou@0.3"] < COLLAPSE_IOU
 
 NEUTRAL: dict[str, tuple[object, tuple[str, ...]]] = {
     "train_scale": (1, ("train_scale", "extra")),

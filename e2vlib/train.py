@@ -60,6 +60,10 @@ METRIC_KEYS = tuple(f"iou@{t}" for t in IOU_THRESHOLDS) + tuple(FSCORE_DISTANCES
 COSINE_FLOOR = 0.05
 """Fraction of the learning rate the cosine schedule ends at (ours)."""
 
+WARMUP_STEPS = 40
+"""Linear warm-up steps of the ``tiny_step`` recipe (ours: about one epoch of data_small's
+training split at batch size 16)."""
+
 VAL_BATCH = 16
 """Samples per forward pass when validating and predicting (no gradients: memory is small)."""
 
@@ -72,7 +76,10 @@ class Recipe:
     """Optimizer and schedule: AdamW(lr, weight_decay), ``epochs`` of ``batch_size``.
 
     ``cosine``: decay the learning rate from ``lr`` to ``COSINE_FLOOR * lr`` over the
-    epochs (see :func:`lr_schedule`). Values are checked: a ValueError names a bad one.
+    epochs (see :func:`lr_schedule`). ``per_step``: set the rate before every optimizer
+    step instead of once per epoch, after ``warmup_steps`` steps of linear warm-up from
+    ``lr / warmup_steps`` (see :func:`lr_at_step`). Values are checked: a ValueError names
+    a bad one.
     """
 
     lr: float
@@ -80,6 +87,8 @@ class Recipe:
     epochs: int
     weight_decay: float = 0.01
     cosine: bool = False
+    per_step: bool = False
+    warmup_steps: int = 0
 
     def __post_init__(self) -> None:
         problems = []
@@ -92,13 +101,19 @@ class Recipe:
         if not _is_number(self.lr) or not self.lr > 0 or not math.isfinite(self.lr):
             problems.append(f"lr must be a finite number > 0, got {self.lr!r}: pass a "
                             "positive learning rate (lr=..., --lr)")
+        if not _is_whole(self.warmup_steps) or self.warmup_steps < 0:
+            problems.append(f"warmup_steps must be a whole number >= 0, got "
+                            f"{self.warmup_steps!r}")
+        elif self.warmup_steps and not self.per_step:
+            problems.append("warmup_steps needs per_step=True (the warm-up is counted in "
+                            "optimizer steps)")
         if not _is_number(self.weight_decay) or not 0 <= self.weight_decay < math.inf:
             problems.append(f"weight_decay must be a finite number >= 0, got "
                             f"{self.weight_decay!r}")
         if problems:
             raise ValueError("invalid training recipe: " + "; ".join(problems))
         for name, kind in (("batch_size", int), ("epochs", int), ("lr", float),
-                           ("weight_decay", float)):
+                           ("weight_decay", float), ("warmup_steps", int)):
             object.__setattr__(self, name, kind(getattr(self, name)))
 
 
@@ -116,6 +131,10 @@ RECIPES = {
     "paper": Recipe(lr=paper.LEARNING_RATE, batch_size=paper.BATCH_SIZE, epochs=paper.EPOCHS),
     # Tuned for the tiny preset on data_small on a 2-core CPU (see bench/RESULTS.md).
     "tiny": Recipe(lr=2e-3, batch_size=16, epochs=30, weight_decay=1e-4, cosine=True),
+    # "tiny" with the rate set every step: a linear warm-up, then the cosine over every
+    # step (the capstone study's recipe; experiments/results/stability.json measured it).
+    "tiny_step": Recipe(lr=2e-3, batch_size=16, epochs=30, weight_decay=1e-4, cosine=True,
+                        per_step=True, warmup_steps=WARMUP_STEPS),
 }
 
 
@@ -126,8 +145,9 @@ def get_recipe(recipe: str | Recipe = "tiny", **overrides: Any) -> Recipe:
 
     Examples
     --------
-    >>> get_recipe("paper", epochs=2)
-    Recipe(lr=1e-05, batch_size=5, epochs=2, weight_decay=0.01, cosine=False)
+    >>> get_recipe("paper", epochs=2)  # doctest: +NORMALIZE_WHITESPACE
+    Recipe(lr=1e-05, batch_size=5, epochs=2, weight_decay=0.01, cosine=False, per_step=False,
+           warmup_steps=0)
     """
     if isinstance(recipe, str):
         if recipe not in RECIPES:
@@ -175,6 +195,32 @@ def lr_schedule(recipe: str | Recipe, epoch: int, epochs: int | None = None) -> 
         return recipe.lr
     floor = COSINE_FLOOR * recipe.lr
     return float(floor + 0.5 * (recipe.lr - floor) * (1 + np.cos(np.pi * epoch / (epochs - 1))))
+
+
+def lr_at_step(recipe: str | Recipe, step: int, total_steps: int) -> float:
+    """The learning rate of optimizer step ``step`` (0 .. ``total_steps`` - 1) of a
+    ``per_step`` recipe.
+
+    Warm-up ``W = recipe.warmup_steps``: ``lr * (s + 1) / W`` for s < W; then, with
+    ``recipe.cosine``, the cosine of :func:`lr_schedule` over the remaining steps,
+    ``lr_min + (lr - lr_min) / 2 * (1 + cos(pi * (s - W) / (T - W - 1)))``; else ``lr``.
+
+    Examples
+    --------
+    >>> r = Recipe(lr=1.0, batch_size=4, epochs=1, cosine=True, per_step=True, warmup_steps=2)
+    >>> [round(lr_at_step(r, s, 6), 3) for s in range(6)]
+    [0.5, 1.0, 1.0, 0.762, 0.288, 0.05]
+    """
+    recipe = get_recipe(recipe)
+    warmup = recipe.warmup_steps
+    if step < warmup:
+        return recipe.lr * (step + 1) / warmup
+    decay_steps = total_steps - warmup
+    if not recipe.cosine or decay_steps <= 1:
+        return recipe.lr
+    floor = COSINE_FLOOR * recipe.lr
+    phase = min(step - warmup, decay_steps - 1) / (decay_steps - 1)
+    return float(floor + 0.5 * (recipe.lr - floor) * (1 + np.cos(np.pi * phase)))
 
 
 def resolve_device(device: str | torch.device = "auto") -> torch.device:
@@ -341,6 +387,16 @@ def _epoch_order(n: int, seed: int, epoch: int) -> torch.Tensor:
     return torch.randperm(n, generator=torch.Generator().manual_seed(seed * 100_003 + epoch))
 
 
+def _batches(n: int, batch_size: int, seed: int, epoch: int) -> list[torch.Tensor]:
+    """The batches (sample indices) of one epoch; a lone last sample joins the batch before
+    it, because BatchNorm cannot train on a single sample."""
+    order = _epoch_order(n, seed, epoch)
+    batches = [order[i:i + batch_size] for i in range(0, len(order), batch_size)]
+    if len(batches) > 1 and len(batches[-1]) < 2:
+        batches[-2:] = [torch.cat(batches[-2:])]
+    return batches
+
+
 def _model_device(model: nn.Module) -> torch.device | None:
     """Device of the model's first parameter (or buffer); None for a model without any."""
     for tensor in (*model.parameters(), *model.buffers()):
@@ -360,6 +416,7 @@ def fit(
     resume: bool = False,
     progress: bool = True,
     on_epoch: Callable[[list[dict]], None] | None = None,
+    on_step: Callable[[dict], None] | None = None,
     metadata: dict | None = None,
     data_config: dict | None = None,
     loss: str = "bce",
@@ -396,6 +453,10 @@ def fit(
         with the same frame settings (:func:`~e2vlib.model.check_frames_match`).
     on_epoch
         Called with the history after each epoch (live plots).
+    on_step
+        Called after every optimizer step with ``{"epoch", "step", "loss", "lr"}`` (epoch
+        from 1, step counted over the whole run from 0); the gradients of that step are
+        still on the model's parameters (diagnostics, per-step plots).
     metadata
         A plain dict stored in the checkpoints under ``"metadata"``.
     data_config
@@ -486,18 +547,14 @@ def fit(
         net = nn.parallel.DistributedDataParallel(
             model, device_ids=[device.index] if device.type == "cuda" else None)
 
+    steps_per_epoch = len(_batches(len(train_set), recipe.batch_size, seed, 0))
+    total_steps = steps_per_epoch * recipe.epochs
     for epoch in range(start_epoch, recipe.epochs):
         for group in optimizer.param_groups:
             group["lr"] = lr_schedule(recipe, epoch, recipe.epochs)
         started = time.perf_counter()
         net.train()
-        order = _epoch_order(len(train_set), seed, epoch)
-        batches = [order[i:i + recipe.batch_size]
-                   for i in range(0, len(order), recipe.batch_size)]
-        if len(batches) > 1 and len(batches[-1]) < 2:
-            # BatchNorm cannot train on a single sample: fold a lone last one into the
-            # batch before it.
-            batches[-2:] = [torch.cat(batches[-2:])]
+        batches = _batches(len(train_set), recipe.batch_size, seed, epoch)
         losses = []
         bar = tqdm(batches, desc=f"epoch {epoch + 1}/{recipe.epochs}", leave=False,
                    disable=not progress or rank != 0)
@@ -505,6 +562,10 @@ def fit(
             mine = batch[rank::world]  # each process takes its share of the batch
             if len(mine) == 0:
                 mine = batch[:1]  # keep every process stepping in lockstep
+            step = epoch * steps_per_epoch + len(losses)
+            if recipe.per_step:
+                for group in optimizer.param_groups:
+                    group["lr"] = lr_at_step(recipe, step, total_steps)
             x = train_set.frames[mine].to(device, torch.float32)
             y = train_set.voxels[mine].to(device, torch.float32)
             with torch.autocast(device.type, dtype=torch.bfloat16,
@@ -518,6 +579,9 @@ def fit(
             optimizer.step()
             losses.append(value.item())
             bar.set_postfix(loss=f"{losses[-1]:.4f}")
+            if on_step is not None and rank == 0:
+                on_step({"epoch": epoch + 1, "step": step, "loss": losses[-1],
+                         "lr": float(optimizer.param_groups[0]["lr"])})
         if world > 1:
             # DDP keeps parameters equal; buffers (BatchNorm running statistics) are only
             # copied from rank 0 at the start of each forward, so align them once more.

@@ -19,6 +19,7 @@ from e2vlib.train import (
     evaluate,
     fit,
     format_table,
+    lr_at_step,
     lr_schedule,
     predict,
     resolve_device,
@@ -194,6 +195,58 @@ def test_lr_schedule_is_public_and_is_what_fit_uses(tmp_path):
     assert [h["lr"] for h in history] == [lr_schedule(three, e) for e in range(3)]
 
 
+def test_per_step_schedule_warms_up_then_follows_the_cosine_by_hand():
+    r = Recipe(lr=1.0, batch_size=1, epochs=1, cosine=True, per_step=True, warmup_steps=4)
+    # warm-up: 1/4, 2/4, 3/4, 4/4 of the rate; then the cosine over the last 5 of 9 steps
+    assert [lr_at_step(r, s, 9) for s in range(4)] == [0.25, 0.5, 0.75, 1.0]
+    assert lr_at_step(r, 4, 9) == 1.0
+    assert lr_at_step(r, 6, 9) == pytest.approx((1 + COSINE_FLOOR) / 2)  # halfway
+    assert lr_at_step(r, 8, 9) == pytest.approx(COSINE_FLOOR)
+    flat = Recipe(lr=0.1, batch_size=1, epochs=1, per_step=True, warmup_steps=2)
+    assert [lr_at_step(flat, s, 5) for s in range(5)] == [0.05, 0.1, 0.1, 0.1, 0.1]
+    with pytest.raises(ValueError, match="warmup_steps needs per_step=True"):
+        Recipe(lr=1.0, batch_size=1, epochs=1, warmup_steps=3)
+    with pytest.raises(ValueError, match="warmup_steps must be a whole number >= 0, got -1"):
+        Recipe(lr=1.0, batch_size=1, epochs=1, per_step=True, warmup_steps=-1)
+    assert RECIPES["tiny_step"].per_step and RECIPES["tiny_step"].warmup_steps > 0
+
+
+def test_fit_sets_the_rate_every_step_and_reports_each_step(tmp_path):
+    # 8 samples in batches of 4: 2 steps per epoch, 6 steps in 3 epochs
+    r = Recipe(lr=1e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
+    steps = []
+    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path, recipe=r,
+                  progress=False, on_step=steps.append)
+    assert [s["step"] for s in steps] == list(range(6))
+    assert [s["epoch"] for s in steps] == [1, 1, 2, 2, 3, 3]
+    assert [s["lr"] for s in steps] == [lr_at_step(r, i, 6) for i in range(6)]
+    assert steps[0]["lr"] == 5e-4 and steps[-1]["lr"] == pytest.approx(COSINE_FLOOR * 1e-3)
+    # the history's rate is the last step's of each epoch
+    assert [h["lr"] for h in history] == [steps[1]["lr"], steps[3]["lr"], steps[5]["lr"]]
+
+
+def test_a_per_step_run_resumed_after_an_interruption_is_exact(tmp_path):
+    r = Recipe(lr=5e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
+    straight = small_model()
+    fit(straight, toy_set(8), toy_set(4, 1), tmp_path / "a", recipe=r, progress=False)
+
+    def stop_after_two(history):
+        if len(history) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r,
+            progress=False, on_epoch=stop_after_two)
+    resumed = small_model(seed=99)
+    steps = []
+    fit(resumed, toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r, progress=False,
+        resume=True, on_step=steps.append)
+    assert [s["step"] for s in steps] == [4, 5]
+    for (name, a), b in zip(straight.state_dict().items(), resumed.state_dict().values(),
+                            strict=True):
+        assert torch.equal(a, b), name
+
+
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"batch_size": 0}, "batch_size must be a whole number >= 1, got 0"),
     ({"batch_size": -2}, "batch_size .* got -2: pass a positive batch size"),
@@ -201,7 +254,8 @@ def test_lr_schedule_is_public_and_is_what_fit_uses(tmp_path):
     ({"lr": 0.0}, "lr must be a finite number > 0, got 0.0"),
     ({"lr": -1e-3}, "got -0.001"),
     ({"lr": math.nan}, "got nan"),
-    ({"recipe": "bogus"}, "unknown recipe 'bogus'; choose one of \\['paper', 'tiny'\\]"),
+    ({"recipe": "bogus"},
+     "unknown recipe 'bogus'; choose one of \\['paper', 'tiny', 'tiny_step'\\]"),
     ({"lrr": 1e-3}, "unknown recipe fields \\['lrr'\\]"),
     ({"loss": "dice"}, "unknown loss 'dice'; choose one of bce, focal, bce_dice"),
     ({"precision": "fp16"}, "precision must be one of fp32, bf16, got 'fp16'"),

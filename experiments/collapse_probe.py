@@ -1,0 +1,126 @@
+"""Watch the first epochs of one study run, step by step, to see how a run collapses.
+
+A collapsed run (for example ``time``'s ``128px`` seed 1, ``encoder``'s ``cnn_gru`` seed 1)
+keeps its best validation IoU from epoch 1 and predicts nearly the same grid for every
+input. This script trains the run exactly as the study does (same protocol, seed, data,
+initial weights and sample order) for a few epochs and records after every optimizer step:
+the loss, the learning rate, the gradient norm, how many of the fully connected bridge's
+units fire for any sample of the batch (a ReLU unit that fires for none gets no gradient and
+stays dead), how much the bridge output differs between the samples of the batch, and the
+mean predicted occupancy.
+
+Usage::
+
+    python experiments/collapse_probe.py STUDY CONFIG SEED [--epochs 3] [--recipe tiny_step]
+        [--out experiments/records/collapse_probe.json]
+
+Each (study, config, seed, recipe, epochs) is one record of the output file, written
+atomically when the run ends; a record already there is skipped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from e2vlib import experiments
+from e2vlib.files import atomic_path
+from e2vlib.model import build_e2v
+from e2vlib.train import fit
+
+
+def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None) -> dict:
+    """The per-step trace of the first ``epochs`` epochs of one study run."""
+    spec = experiments.STUDIES[study]
+    protocol = {**spec.protocol(), **spec.configs[config]}
+    if recipe is not None:
+        protocol["recipe"] = recipe
+    torch.set_num_threads(int(protocol["threads"]))
+    train = experiments.load_split(protocol, "train")
+    val = experiments.load_split(protocol, "val")
+    model = build_e2v(protocol["preset"], seed=seed, input_shape=tuple(train.frames.shape[-3:]))
+    seen: dict[str, torch.Tensor] = {}
+
+    def keep(name):
+        def hook(_module, _inputs, output):
+            if model.training:
+                seen[name] = output.detach()
+        return hook
+
+    model.bridge.fc.register_forward_hook(keep("bridge"))
+    model.head.register_forward_hook(keep("logits"))
+    steps: list[dict] = []
+
+    def on_step(info: dict) -> None:
+        grads = [p.grad.norm() for p in model.parameters() if p.grad is not None]
+        bridge, logits = seen["bridge"], seen["logits"]
+        steps.append({
+            **info,
+            "grad_norm": float(torch.linalg.vector_norm(torch.stack(grads))),
+            "bridge_alive": float((bridge > 0).any(dim=0).float().mean()),
+            "bridge_spread": float(bridge.std(dim=0).mean()),
+            "mean_probability": float(torch.sigmoid(logits).mean()),
+            "head_bias": float(model.head.bias.detach()[0]),
+        })
+
+    history: list[dict] = []
+
+    def on_epoch(so_far: list[dict]) -> None:
+        history[:] = [dict(h) for h in so_far]
+        if len(so_far) >= epochs:  # the schedule is the full run's; stop watching here
+            raise _Enough
+
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            fit(model, train, val, tmp, recipe=protocol["recipe"],
+                epochs=experiments.epochs_of(protocol), seed=seed, loss=protocol["loss"],
+                progress=False, on_step=on_step, on_epoch=on_epoch)
+        except _Enough:
+            pass
+    return {"study": study, "config": config, "seed": seed, "recipe": protocol["recipe"],
+            "epochs_watched": epochs, "protocol": protocol,
+            "history": history, "steps": steps,
+            "seconds": round(time.perf_counter() - started, 1),
+            "cpu": experiments.cpu_name(), "torch": torch.__version__}
+
+
+class _Enough(Exception):
+    pass
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("study")
+    parser.add_argument("config")
+    parser.add_argument("seed", type=int)
+    parser.add_argument("--epochs", type=int, default=3)
+    parser.add_argument("--recipe", default=None, help="another recipe than the study's")
+    parser.add_argument("--out", default="experiments/records/collapse_probe.json")
+    args = parser.parse_args()
+    out = Path(args.out)
+    records = json.loads(out.read_text()) if out.exists() else {}
+    recipe = args.recipe or experiments.STUDIES[args.study].protocol()["recipe"]
+    key = f"{args.study}/{args.config}/seed{args.seed}/{recipe}/{args.epochs}ep"
+    if key in records:
+        print(f"{key}: already recorded")
+        return
+    record = probe(args.study, args.config, args.seed, args.epochs, args.recipe)
+    records[key] = record
+    with atomic_path(out) as tmp:
+        tmp.write_text(json.dumps(records, indent=1) + "\n")
+    last = record["steps"][-1]
+    print(f"{key}: val IoU per epoch {[round(h['val_iou'], 3) for h in record['history']]}, "
+          f"bridge units alive {last['bridge_alive']:.2f}, mean p {last['mean_probability']:.3f}"
+          f" ({record['seconds']:.0f} s)")
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    main()
