@@ -590,7 +590,7 @@ def test_a_dataset_folder_with_garbage_config_is_refused_by_name(built, tmp_path
 KILLED_BUILD = textwrap.dedent("""
     import sys, time
     from pathlib import Path
-    import e2vlib.data as data
+    import e2vlib.data.build as data
 
     real, calls = data.save_sample, []
 

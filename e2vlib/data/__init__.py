@@ -1,0 +1,204 @@
+"""Datasets: build E2V samples from meshes, store them compactly, and read them back.
+
+One sample is what the paper feeds its network: an object is rendered along the spiral
+orbit (120 frames at 240 fps = 0.5 s, rendered ``oversample`` times denser for the
+simulator), the video becomes events (ESIM, contrast 0.2), the events become 100 binary
+frames of 5 ms, max-pooled down to ``frame_size``; the label is the object's 32^3 voxel
+grid. Every public name is importable from here
+(``from e2vlib.data import BuildConfig, build_dataset, E2VDataset``); the code lives in
+eleven modules, each with one job:
+
+=========================  =================================================================
+``data.checks``            a dataset folder is untrusted input: :class:`DatasetError`,
+                           :func:`read_manifest_rows`, :func:`read_config`,
+                           :func:`check_id`, :func:`inside`, :data:`SPLITS`, the size
+                           limits (:data:`MAX_FRAMES_PER_SAMPLE`, ...)
+``data.config``            build settings: :class:`BuildConfig` (ROOT/config.json),
+                           :func:`frame_settings`, :func:`dataset_config`
+``data.commands``          the make-data command lines: :func:`make_data_command`,
+                           :func:`build_command`
+``data.plan``              which samples a build makes: :class:`SampleSpec`,
+                           :func:`plan_samples`, :func:`sample_seed`, :func:`parse_shard`,
+                           :func:`raw_event_ids`
+``data.grey``              grey video at the event frames' times: :func:`rendered_times_us`,
+                           :func:`grey_frame_indices`, :func:`grey_frame_cameras`,
+                           :func:`video_to_grey`, :func:`save_grey_video`,
+                           :func:`load_grey_video`
+``data.samples``           one sample: :func:`mesh_to_sample` (mesh -> voxels, video,
+                           events, frames), :class:`Sample`, :func:`save_sample`,
+                           :func:`load_sample`; :func:`events_to_frames`,
+                           :func:`events_to_model_input`
+``data.manifest``          ROOT/manifest.csv: :func:`write_manifest`, :func:`read_manifest`,
+                           :func:`npz_digest`, :func:`manifest_digests`
+``data.build``             :func:`build_dataset` (resumable, sharded),
+                           :func:`check_build_folder`, :func:`describe_build`,
+                           :func:`run_jobs` (the worker pool)
+``data.shards``            joining sharded builds: :func:`merge_datasets`,
+                           :class:`MergeReport`, :class:`MergeError`
+``data.synthevox3d``       the authors' released layout: :func:`synthevox3d_items`,
+                           :func:`load_synthevox3d_scan`, :func:`synthevox3d_time_scale`
+``data.dataset``           reading: :class:`E2VDataset` (a PyTorch ``Dataset``),
+                           :func:`verify_dataset`, :class:`Verification`
+=========================  =================================================================
+
+``checks`` imports only ``e2vlib.paper``; the others import the modules above them in this
+table (and ``e2vlib.frames``, ``io``, ``events``, ``files``, ``paper``; ``render``,
+``simulate``, ``shapes`` and ``voxels`` lazily); none imports this package's ``__init__``.
+``e2vlib.shards`` and ``e2vlib.dataset_checks`` are the old homes of ``data.shards`` and
+``data.checks``; they re-export them.
+
+Layout written by :func:`build_dataset` (``data_small/`` is one)::
+
+    ROOT/manifest.csv           id, category, split, seed, n_events, sha256 (one row per sample)
+    ROOT/config.json            the builder's settings (resolution, frame size, ...)
+    ROOT/samples/<id>.npz       frames (bit-packed), voxels (bit-packed), n_events
+    ROOT/events/<id>.npz        raw events of a few samples (e2vlib.io format)
+    ROOT/grey/<id>.npz          grey video at the event frames' times (``--grey-video`` only)
+    ROOT/shards/<i>-of-<n>.json which shards ran here (``--shard i/n`` builds only)
+
+``sha256`` is the digest of each sample file's arrays (:func:`npz_digest`); older manifests
+without it read as before. Shards built into separate folders are joined and checked by
+:func:`merge_datasets` (``python -m e2vlib merge-data``). :class:`E2VDataset` reads that
+layout and the authors' released SynthEVox3D layout.
+
+Introduced in notebooks/04_building_the_dataset.ipynb.
+"""
+
+from e2vlib.data.build import (
+    DATASET_ENTRIES,
+    SHARDS_DIR,
+    build_dataset,
+    check_build_folder,
+    describe_build,
+    run_jobs,
+)
+from e2vlib.data.checks import (
+    MANIFEST_REQUIRED,
+    MAX_CONFIG_BYTES,
+    MAX_FRAMES_PER_SAMPLE,
+    MAX_ID_LENGTH,
+    MAX_MANIFEST_BYTES,
+    SPLITS,
+    WINDOWS,
+    DatasetError,
+    check_id,
+    inside,
+    npz_problem,
+    read_config,
+    read_manifest_rows,
+    rebuild_hint,
+)
+from e2vlib.data.commands import build_command, make_data_command
+from e2vlib.data.config import (
+    MAX_PER_CATEGORY,
+    MAX_RESOLUTION,
+    BuildConfig,
+    dataset_config,
+    frame_settings,
+)
+from e2vlib.data.dataset import E2VDataset, Verification, verify_dataset
+from e2vlib.data.grey import (
+    GREY_DIR,
+    grey_frame_cameras,
+    grey_frame_indices,
+    load_grey_video,
+    nearest_frames,
+    rendered_times_us,
+    save_grey_video,
+    video_to_grey,
+)
+from e2vlib.data.manifest import (
+    MANIFEST_FIELDS,
+    manifest_digests,
+    npz_digest,
+    read_manifest,
+    write_manifest,
+)
+from e2vlib.data.plan import (
+    SPLIT_FRACTIONS,
+    SampleSpec,
+    parse_shard,
+    plan_samples,
+    raw_event_ids,
+    sample_seed,
+)
+from e2vlib.data.samples import (
+    Sample,
+    events_to_frames,
+    events_to_model_input,
+    load_sample,
+    mesh_to_sample,
+    save_sample,
+)
+from e2vlib.data.shards import MergeError, MergeReport, merge_datasets
+from e2vlib.data.synthevox3d import (
+    SYNTHEVOX3D_SENSOR,
+    load_synthevox3d_scan,
+    synthevox3d_items,
+    synthevox3d_time_scale,
+)
+
+__all__ = [
+    "DATASET_ENTRIES",
+    "GREY_DIR",
+    "MANIFEST_FIELDS",
+    "MANIFEST_REQUIRED",
+    "MAX_CONFIG_BYTES",
+    "MAX_FRAMES_PER_SAMPLE",
+    "MAX_ID_LENGTH",
+    "MAX_MANIFEST_BYTES",
+    "MAX_PER_CATEGORY",
+    "MAX_RESOLUTION",
+    "SHARDS_DIR",
+    "SPLITS",
+    "SPLIT_FRACTIONS",
+    "SYNTHEVOX3D_SENSOR",
+    "WINDOWS",
+    "BuildConfig",
+    "DatasetError",
+    "E2VDataset",
+    "MergeError",
+    "MergeReport",
+    "Sample",
+    "SampleSpec",
+    "Verification",
+    "build_command",
+    "build_dataset",
+    "check_build_folder",
+    "check_id",
+    "dataset_config",
+    "describe_build",
+    "events_to_frames",
+    "events_to_model_input",
+    "frame_settings",
+    "grey_frame_cameras",
+    "grey_frame_indices",
+    "inside",
+    "load_grey_video",
+    "load_sample",
+    "load_synthevox3d_scan",
+    "make_data_command",
+    "manifest_digests",
+    "merge_datasets",
+    "mesh_to_sample",
+    "nearest_frames",
+    "npz_digest",
+    "npz_problem",
+    "parse_shard",
+    "plan_samples",
+    "raw_event_ids",
+    "read_config",
+    "read_manifest",
+    "read_manifest_rows",
+    "rebuild_hint",
+    "rendered_times_us",
+    "run_jobs",
+    "sample_seed",
+    "save_grey_video",
+    "save_sample",
+    "synthevox3d_items",
+    "synthevox3d_time_scale",
+    "verify_dataset",
+    "video_to_grey",
+    "write_manifest",
+]
