@@ -14,6 +14,13 @@ from e2vlib import paper
 
 IOU_THRESHOLDS = paper.IOU_THRESHOLDS  # the thresholds Pix2Vox reports (our choice to follow)
 
+FSCORE_DISTANCES = {"fscore@1%": paper.FSCORE_DISTANCE,
+                    "fscore@20%": paper.FSCORE_DISTANCE_REPORTED}
+"""The F-score columns: the metric key and its distance (fraction of the object's extent)."""
+
+METRIC_KEYS = tuple(f"iou@{t}" for t in IOU_THRESHOLDS) + tuple(FSCORE_DISTANCES)
+"""Every metric of a score table, in the column order of the paper's Tables I and II."""
+
 
 MAX_SURFACE_POINTS = 2**20
 """Most surface points :func:`fscore` samples per grid (1,048,576; 8192 is usual): two
@@ -284,10 +291,10 @@ def summarize(scores, categories) -> dict:
     """Per-sample scores -> the layout of :func:`e2vlib.train.evaluate`'s result.
 
     ``scores`` maps a metric name to per-sample values ``(N,)`` (for example the output of
-    :func:`e2vlib.train.score_predictions`), ``categories`` holds one name per sample.
+    :func:`score_predictions`), ``categories`` holds one name per sample.
     Returns ``{"overall": {metric: mean over all samples}, "per_category": {category:
     {metric: mean over its samples, "n": count}}}`` (categories in first-seen order), so
-    :func:`e2vlib.train.format_table` prints it in the layout of the paper's Tables I and
+    :func:`format_table` prints it in the layout of the paper's Tables I and
     II; notebooks/07_evaluation.ipynb uses it for the per-category oracle.
 
     Examples
@@ -304,3 +311,80 @@ def summarize(scores, categories) -> dict:
         "per_category": {c: {**{key: means[c] for key, means in per_metric.items()},
                              "n": counts[c]} for c in cats},
     }
+
+
+def score_predictions(probabilities, voxels, fscore_points: int = 8192) -> dict[str, np.ndarray]:
+    """Per-sample metrics of predictions ``(N, 32, 32, 32)`` against labels of the same
+    shape: ``{"iou@0.2": (N,), ..., "fscore@1%": (N,), "fscore@20%": (N,)}``
+    (:data:`METRIC_KEYS`).
+
+    F-scores use :data:`e2vlib.paper.IOU_THRESHOLD` (Pix2Vox++'s choice) and
+    ``fscore_points`` surface samples.
+
+    Examples
+    --------
+    >>> gt = np.zeros((2, 32, 32, 32)); gt[:, 8:24, 8:24, 8:24] = 1
+    >>> p = np.stack([gt[0] * 0.9, gt[1] * 0.35])   # sample 1 is occupied only below 0.4
+    >>> scores = score_predictions(p, gt, fscore_points=512)
+    >>> list(scores) == list(METRIC_KEYS), scores["iou@0.3"].tolist(), scores["iou@0.4"].tolist()
+    (True, [1.0, 1.0], [1.0, 0.0])
+    """
+    scores = {f"iou@{t}": np.atleast_1d(iou(probabilities, voxels, threshold=t))
+              for t in IOU_THRESHOLDS}
+    f = fscores(probabilities, voxels, threshold=paper.IOU_THRESHOLD,
+                distances=tuple(FSCORE_DISTANCES.values()), n_points=fscore_points)
+    for column, key in enumerate(FSCORE_DISTANCES):
+        scores[key] = np.atleast_2d(f)[:, column]
+    return scores
+
+
+def score_split(probabilities, voxels, categories, fscore_points: int = 8192) -> dict:
+    """Score predictions of a whole split: :func:`summarize` of :func:`score_predictions`,
+    plus ``"scores"`` (the per-sample arrays). What :func:`e2vlib.train.evaluate`, the
+    experiment runner and the geometry study report.
+
+    Examples
+    --------
+    >>> gt = np.zeros((3, 32, 32, 32)); gt[:, :16] = 1
+    >>> p = np.stack([gt[0] * 0.9, gt[1] * 0.9, 1 - gt[2]])   # the lamp is inside out
+    >>> result = score_split(p, gt, ["chair", "chair", "lamp"], fscore_points=512)
+    >>> result["per_category"]["chair"]["iou@0.3"], result["per_category"]["lamp"]["iou@0.3"]
+    (1.0, 0.0)
+    >>> round(result["overall"]["iou@0.3"], 3), result["scores"]["iou@0.3"].shape
+    (0.667, (3,))
+    """
+    scores = score_predictions(probabilities, voxels, fscore_points)
+    return {**summarize(scores, categories), "scores": scores}
+
+
+def format_table(result: dict, categories=None, keys=METRIC_KEYS) -> str:
+    """The per-category table of a :func:`summarize` / :func:`score_split` result (or
+    :func:`e2vlib.train.evaluate`'s, with its baselines) in the layout of the paper's
+    Tables I and II, as text; ``categories`` default to the paper's order.
+
+    Examples
+    --------
+    >>> result = summarize({"iou@0.3": [0.25, 0.75]}, ["chair", "chair"])
+    >>> print(format_table(result, keys=("iou@0.3",)))
+    category        n    iou@0.3
+    ----------------------------
+    chair           2      0.500
+    ----------------------------
+    overall         2      0.500
+    """
+    categories = categories or [c for c in paper.CATEGORIES if c in result["per_category"]]
+    header = f"{'category':<12} {'n':>4} " + " ".join(f"{k:>10}" for k in keys)
+    lines = [header, "-" * len(header)]
+    for c in categories:
+        row = result["per_category"][c]
+        lines.append(f"{c:<12} {row['n']:>4} " + " ".join(f"{row[k]:>10.3f}" for k in keys))
+    lines.append("-" * len(header))
+    n = sum(result["per_category"][c]["n"] for c in categories)
+    lines.append(f"{'overall':<12} {n:>4} "
+                 + " ".join(f"{result['overall'][k]:>10.3f}" for k in keys))
+    for name, label in (("baseline_mean_shape", "mean shape"),
+                        ("baseline_category_mean", "cat. mean")):
+        if name in result:
+            lines.append(f"{label:<12} {'':>4} "
+                         + " ".join(f"{result[name][k]:>10.3f}" for k in keys))
+    return "\n".join(lines)

@@ -35,7 +35,8 @@ from e2vlib.model import build_e2v
 from e2vlib.train import fit
 
 
-def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None) -> dict:
+def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
+          head_prior: bool = False, leaky_bridge: bool = False) -> dict:
     """The per-step trace of the first ``epochs`` epochs of one study run."""
     spec = experiments.STUDIES[study]
     protocol = {**spec.protocol(), **spec.configs[config]}
@@ -45,6 +46,13 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None) -
     train = experiments.load_split(protocol, "train")
     val = experiments.load_split(protocol, "val")
     model = build_e2v(protocol["preset"], seed=seed, input_shape=tuple(train.frames.shape[-3:]))
+    if head_prior:  # start at the training labels' mean occupancy, not at p = 0.5 + features
+        occupancy = float(train.voxels.float().mean())
+        with torch.no_grad():
+            model.head.weight.mul_(0.01)
+            model.head.bias.fill_(float(np.log(occupancy / (1 - occupancy))))
+    if leaky_bridge:
+        model.bridge.fc[3] = torch.nn.LeakyReLU(0.01, inplace=True)
     seen: dict[str, torch.Tensor] = {}
 
     def keep(name):
@@ -85,6 +93,7 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None) -
         except _Enough:
             pass
     return {"study": study, "config": config, "seed": seed, "recipe": protocol["recipe"],
+            "head_prior": head_prior, "leaky_bridge": leaky_bridge,
             "epochs_watched": epochs, "protocol": protocol,
             "history": history, "steps": steps,
             "seconds": round(time.perf_counter() - started, 1),
@@ -102,19 +111,26 @@ def main() -> None:
     parser.add_argument("seed", type=int)
     parser.add_argument("--epochs", type=int, default=3)
     parser.add_argument("--recipe", default=None, help="another recipe than the study's")
+    parser.add_argument("--head-prior", action="store_true",
+                        help="start the output layer at the labels' mean occupancy")
+    parser.add_argument("--leaky-bridge", action="store_true",
+                        help="LeakyReLU(0.01) instead of ReLU after the bridge")
     parser.add_argument("--out", default="experiments/records/collapse_probe.json")
     args = parser.parse_args()
     out = Path(args.out)
     records = json.loads(out.read_text()) if out.exists() else {}
     recipe = args.recipe or experiments.STUDIES[args.study].protocol()["recipe"]
-    key = f"{args.study}/{args.config}/seed{args.seed}/{recipe}/{args.epochs}ep"
+    key = f"{args.study}/{args.config}/seed{args.seed}/{recipe}/{args.epochs}ep" + (
+        "/head_prior" if args.head_prior else "") + ("/leaky_bridge" if args.leaky_bridge else "")
     if key in records:
         print(f"{key}: already recorded")
         return
-    record = probe(args.study, args.config, args.seed, args.epochs, args.recipe)
+    record = probe(args.study, args.config, args.seed, args.epochs, args.recipe,
+                   args.head_prior, args.leaky_bridge)
     records[key] = record
     with atomic_path(out) as tmp:
         tmp.write_text(json.dumps(records, indent=1) + "\n")
+    out.parent.mkdir(parents=True, exist_ok=True)
     last = record["steps"][-1]
     print(f"{key}: val IoU per epoch {[round(h['val_iou'], 3) for h in record['history']]}, "
           f"bridge units alive {last['bridge_alive']:.2f}, mean p {last['mean_probability']:.3f}"

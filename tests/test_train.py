@@ -225,6 +225,27 @@ def test_fit_sets_the_rate_every_step_and_reports_each_step(tmp_path):
     assert [h["lr"] for h in history] == [steps[1]["lr"], steps[3]["lr"], steps[5]["lr"]]
 
 
+def test_output_prior_starts_the_predictions_at_the_labels_occupancy(tmp_path):
+    from e2vlib.train import init_output_prior
+
+    data = toy_set(8)
+    occupancy = float(data.voxels.float().mean())  # big cubes 24^3, small 8^3 of 32^3
+    plain, primed = small_model(), small_model()
+    init_output_prior(primed, occupancy)
+    before = predict(plain, data.frames).mean().item()
+    after = predict(primed, data.frames)
+    assert abs(before - occupancy) > 0.1  # untouched: far from the labels' occupancy
+    assert after.mean().item() == pytest.approx(occupancy, abs=0.01)
+    assert after.std().item() < 0.01  # the same everywhere: weights scaled by 0.01
+    with pytest.raises(ValueError, match="occupancy must be in \\(0, 1\\), got 0.0"):
+        init_output_prior(small_model(), 0.0)
+    # fit applies it before the first step with a recipe that asks for it
+    r = Recipe(lr=1e-9, batch_size=4, epochs=1, output_prior=True)
+    model = small_model()
+    fit(model, data, toy_set(4, 1), tmp_path, recipe=r, progress=False)
+    assert torch.sigmoid(model.head.bias).item() == pytest.approx(occupancy, abs=1e-4)
+
+
 def test_a_per_step_run_resumed_after_an_interruption_is_exact(tmp_path):
     r = Recipe(lr=5e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
     straight = small_model()
@@ -497,7 +518,7 @@ def test_bf16_training_learns_and_keeps_float32_weights(tmp_path):
 
 def test_a_non_finite_bf16_gradient_stops_training_and_names_the_parameter(tmp_path,
                                                                           monkeypatch):
-    monkeypatch.setattr("e2vlib.train.bf16_is_fast", lambda device="cpu": True)
+    monkeypatch.setattr("e2vlib.train.loop.bf16_is_fast", lambda device="cpu": True)
     model = small_model()
     name, weight = next((n, p) for n, p in model.named_parameters() if n.endswith("weight"))
     weight.register_hook(lambda grad: grad * float("nan"))

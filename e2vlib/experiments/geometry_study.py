@@ -1,0 +1,153 @@
+"""The ``geometry`` study: reconstruction without learning, beside the learned model.
+
+For every test object of data_small (known camera poses, no training) it scores
+
+* ``visual_hull``: carved from the silhouettes of the grey orbit video (the 120 video
+  frames at the paper's 240 fps), the reference for silhouette-based methods;
+* ``events_carving``: events only, from the object's raw events in the events cache
+  (:data:`e2vlib.experiments.EVENTS_CACHE`), with :func:`e2vlib.geometry.event_ray_density`
+  and :func:`e2vlib.geometry.fill_solid`;
+* ``learned``: the shipped checkpoint ``data_small/checkpoints/tiny.pt`` on the stored frames;
+* ``mean_shape``: the mean training label, the baseline of lessons 06-07;
+
+all with :func:`e2vlib.geometry.score_occupancy` (the learned model's metrics). One record
+per object, appended to ``OUT/geometry.json`` atomically; recorded objects are skipped, so
+an interrupted study resumes. Command: ``python -m e2vlib experiment geometry``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from e2vlib import metrics, paper
+from e2vlib.experiments.provenance import git_commit
+from e2vlib.files import atomic_path
+
+METHODS = ("visual_hull", "events_carving", "learned", "mean_shape")
+"""The rows of the study, in table order."""
+
+QUESTION = ("The paper compares E2V with image-based methods only across papers (Table III). "
+            "With known camera poses and no learning, how far do silhouettes (a visual hull of "
+            "the grey video) and events alone (carving from event outlines) get on the same "
+            "test objects, next to the learned model and the mean shape?")
+
+
+def _object_record(item: dict, config, data: Path, events_root: Path, learned: np.ndarray,
+                   mean_shape: np.ndarray, n_points: int) -> dict:
+    """Scores of every method on one test object (``item``: a manifest row)."""
+    from e2vlib import geometry
+    from e2vlib.data import load_sample
+    from e2vlib.io import load_events
+    from e2vlib.render import orbit_cameras, render_orbit
+    from e2vlib.shapes import make_shape, normalize_mesh
+
+    _, label = load_sample(data / "samples" / f"{item['id']}.npz")
+    label = label.astype(bool)
+    mesh = normalize_mesh(make_shape(item["category"], int(item["seed"])))
+    started = time.perf_counter()
+    video, _ = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
+                            resolution=config.resolution, oversample=config.oversample)
+    # rendered oversample * 119 + 1 frames: every oversample-th is one of the 120 video frames
+    step = (len(video) - 1) // (paper.N_VIDEO_FRAMES - 1)
+    silhouettes = geometry.silhouettes_from_video(video[::step])
+    hull = geometry.visual_hull(silhouettes, orbit_cameras(paper.N_VIDEO_FRAMES),
+                                config.resolution)
+    hull_seconds = time.perf_counter() - started
+    events_path = events_root / "events" / f"{item['id']}.npz"
+    if not events_path.exists():
+        raise FileNotFoundError(f"{events_path} is missing: the events cache must hold the raw "
+                                "events of every sample; rebuild it with the command in "
+                                "e2vlib.experiments.EVENTS_COMMAND")
+    events, sensor_size = load_events(events_path)
+    started = time.perf_counter()
+    density = geometry.event_ray_density(events, geometry.orbit_camera_at, sensor_size[0])
+    carved = geometry.fill_solid(density)
+    events_seconds = time.perf_counter() - started
+    scores = {
+        "visual_hull": geometry.score_occupancy(hull, label, n_points),
+        "events_carving": geometry.score_occupancy(carved, label, n_points),
+        "learned": geometry.score_occupancy(learned, label, n_points),
+        "mean_shape": geometry.score_occupancy(mean_shape, label, n_points),
+    }
+    return {"id": item["id"], "category": item["category"], "scores": scores,
+            "seconds": {"visual_hull": round(hull_seconds, 2),
+                        "events_carving": round(events_seconds, 2)},
+            "n_events": int(len(events))}
+
+
+def run_geometry_study(out: str | os.PathLike = "experiments/results",
+                       data: str | os.PathLike = "data_small",
+                       events: str | os.PathLike = "cache/events_small",
+                       limit_per_category: int | None = None, n_points: int = 8192,
+                       progress: bool = True) -> Path:
+    """Score every method on every test object not yet in ``OUT/geometry.json``; return it.
+
+    ``limit_per_category`` keeps only the first objects of each category (quick checks).
+    """
+    import torch
+    from tqdm.auto import tqdm
+
+    from e2vlib.data import BuildConfig, E2VDataset, read_manifest
+    from e2vlib.model import load_checkpoint
+    from e2vlib.train import predict, preload
+
+    data, events = Path(data), Path(events)
+    config = BuildConfig.from_dict(json.loads((data / "config.json").read_text()))
+    test = E2VDataset(data, "test")
+    chosen = list(range(len(test)))
+    if limit_per_category is not None:
+        chosen = [i for c, idx in test.category_indices().items()
+                  for i in idx[:limit_per_category]]
+    protocol = {"data": str(data), "events": str(events),
+                "checkpoint": str(data / "checkpoints" / "tiny.pt"),
+                "silhouettes": f"{paper.N_VIDEO_FRAMES} grey video frames at "
+                               f"{config.resolution} px",
+                "events_method": "geometry.event_ray_density + fill_solid (defaults)",
+                "n_points": n_points, "limit_per_category": limit_per_category}
+    path = Path(out) / "geometry.json"
+    results = (json.loads(path.read_text()) if path.exists()
+               else {"study": "geometry", "question": QUESTION, "protocol": protocol,
+                     "runs": []})
+    if results["protocol"] != protocol:
+        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
+                         f"use another --out folder to run this one ({protocol})")
+    results["command"] = "python -m e2vlib experiment geometry"
+    done = {r["id"] for r in results["runs"]}
+    todo = [i for i in chosen if test.ids[i] not in done]
+    if todo:
+        model = load_checkpoint(protocol["checkpoint"])
+        frames = torch.stack([test[i]["frames"] for i in todo])
+        learned = predict(model, frames, "cpu").numpy()
+        train = preload(E2VDataset(data, "train"))
+        mean_shape = train.voxels.float().mean(0).numpy()
+    rows = {r["id"]: r for r in read_manifest(data)}
+    commit = git_commit()  # one `git` call per study, not per object
+    for k, i in enumerate(tqdm(todo, desc="geometry", unit="object", disable=not progress)):
+        record = _object_record(rows[test.ids[i]], config, data, events, learned[k],
+                                mean_shape, n_points)
+        results["runs"].append({**record, "commit": commit})
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            tmp.write_text(json.dumps(results, indent=1) + "\n")
+    return path
+
+
+def summarize_geometry(results: dict | str | os.PathLike,
+                       metric: str = "iou@0.3") -> list[dict]:
+    """Per method: mean of ``metric`` over objects, its 95 % interval (t over objects), n."""
+
+    if not isinstance(results, dict):
+        results = json.loads(Path(results).read_text())
+    rows = []
+    for method in METHODS:
+        values = np.array([r["scores"][method][metric] for r in results["runs"]])
+        if len(values) == 0:
+            continue
+        rows.append({"method": method, "n": len(values), "mean": float(values.mean()),
+                     "ci95": metrics.interval95(values)})
+    return rows

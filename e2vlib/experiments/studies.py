@@ -1,0 +1,215 @@
+"""The studies: the shared protocol, each study's question and configs, and what makes two
+protocols the same run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from e2vlib import paper
+from e2vlib.experiments.caches import EVENTS_CACHE, EXTRA_CACHE, NOISE_CACHE, RENDER_CACHE
+
+GREY_INPUTS: dict[str, str] = {
+    "grey_video": "the rendered grey frames of the same orbit at the event frames' times",
+    "grey_single": "one grey view (the orbit's first frame), for a 2D encoder",
+}
+"""Inputs of the input study that are not events (read from the cache's grey videos)."""
+
+
+BASE: dict = {
+    "data": "data_small",
+    "events": str(EVENTS_CACHE),
+    "representation": "binary",
+    "n_frames": paper.N_EVENT_FRAMES,
+    "dt_us": paper.DT_US,
+    "frame_size": paper.FRAME_SIZE_PX,
+    "preset": "tiny",
+    "loss": "bce",
+    "recipe": "tiny",
+    "epochs": 12,
+    "threads": 2,
+}
+"""The shared protocol: every config of every study changes only some of these keys."""
+
+
+QUICK: dict = {"epochs": 1, "per_category": 2, "frame_size": 32}
+"""Quick mode (CI, live lesson demos): 2 training samples per category, 1 epoch, 32 px."""
+
+
+THRESHOLDS = tuple(np.round(np.arange(0.05, 0.96, 0.05), 2).tolist())
+"""Candidate voxelisation thresholds for the one picked on the validation split."""
+
+
+@dataclass(frozen=True)
+class Study:
+    """A question and the configs that answer it (``config name -> params``)."""
+
+    name: str
+    question: str
+    configs: dict[str, dict]
+    base: dict = field(default_factory=dict)
+
+    def protocol(self, quick: bool = False) -> dict:
+        """The base protocol of this study (``BASE`` + the study's own base + quick)."""
+        return {**BASE, **self.base, **(QUICK if quick else {})}
+
+
+STUDIES: dict[str, Study] = {
+    "representation": Study(
+        "representation",
+        "The paper uses binary event frames and names time surfaces and other "
+        "representations as future work: which input lets the same network learn most?",
+        {name: {"representation": name} for name in (
+            "binary", "binary_paper", "count", "polarity", "time_surface", "voxel_grid",
+            "edges")},
+    ),
+    "time": Study(
+        "time",
+        "The paper fixes 100 frames of 5 ms at 256 px: how do the number of frames over the "
+        "same 0.5 s, and the frame size, change the result?",
+        {
+            "10x50ms": {"n_frames": 10, "dt_us": 50_000},
+            "25x20ms": {"n_frames": 25, "dt_us": 20_000},
+            "50x10ms": {"n_frames": 50, "dt_us": 10_000},
+            "100x5ms": {},
+            "200x2.5ms": {"n_frames": 200, "dt_us": 2_500},
+            "32px": {"frame_size": 32},
+            "128px": {"frame_size": 128},
+        },
+    ),
+    "encoder": Study(
+        "encoder",
+        "The paper suggests LSTM/GRU or EfficientNet encoders instead of its 3D ResNet: "
+        "does a recurrent encoder over per-frame 2D features do better at equal size?",
+        {"resnet3d": {"preset": "tiny"}, "cnn_gru": {"preset": "tiny_gru"},
+         "cnn_pool": {"preset": "tiny2d"}},
+    ),
+    "loss": Study(
+        "loss",
+        "The paper trains with mean binary cross-entropy; do focal or BCE + Dice losses, "
+        "which weigh the rare occupied voxels more, give better grids?",
+        {"bce": {"loss": "bce"}, "focal": {"loss": "focal"}, "bce_dice": {"loss": "bce_dice"}},
+    ),
+    "input": Study(
+        "input",
+        "The paper compares E2V only across papers with image methods that see grey or RGB "
+        "frames: on the same objects, splits and budget, what do events buy over the grey "
+        "video of the same orbit, and over a single grey view?",
+        {"events": {},
+         "grey_video": {"representation": "grey_video"},
+         "grey_single": {"representation": "grey_single", "preset": "tiny2d", "n_frames": 1}},
+    ),
+    "noise": Study(
+        "noise",
+        "The paper trains and tests on noise-free simulated events; a real sensor adds "
+        "threshold mismatch, shot noise, leak events and a refractory period. How much does "
+        "noise at test time cost a clean-trained model, and does training with noise help?",
+        {"train_clean": {}, "train_medium": {"noise": "medium"}},
+        base={"noise": "clean", "noise_events": NOISE_CACHE,
+              "test_noise": ["clean", "low", "medium", "high"]},
+    ),
+    "data_scale": Study(
+        "data_scale",
+        "The paper expects more data to close its gap to image methods: at a fixed number of "
+        "training steps, how does test IoU grow with the number of training samples?",
+        {f"{scale:g}x": {"train_scale": scale} for scale in (0.25, 0.5, 1, 2, 4)},
+        base={"train_scale": 1, "extra": EXTRA_CACHE},
+    ),
+    "render": Study(
+        "render",
+        "The paper renders its videos in Blender and does not say how edges are smoothed; our "
+        "datasets use VTK's supersampling (SSAA), about 90 % of a sample's build time. Does "
+        "the network learn as well from the events of renders without anti-aliasing (4-7x "
+        "faster), and does a model trained on one kind of render work on the other?",
+        {"ssaa": {}, "none": {"data": RENDER_CACHE}},
+        base={"test_data": {"ssaa": "data_small", "none": RENDER_CACHE}},
+    ),
+    "stability": Study(
+        "stability",
+        "Some runs of the tiny recipe collapse to a grid that hardly depends on the input "
+        "(time's 128px seed 1, encoder's cnn_gru seed 1). With the learning rate set every "
+        "step and warmed up over the first steps, do 8 seeds of each train without a "
+        "collapse?",
+        {"128px": {"frame_size": 128}, "cnn_gru": {"preset": "tiny_gru"}},
+        base={"recipe": "tiny_step"},
+    ),
+    "capstone": Study(
+        "capstone",
+        "Lessons 09-12 found BCE + Dice, 128 px frames and 200 x 2.5 ms frames ahead of the "
+        "base recipe, one at a time: does each hold with the per-step schedule, does a "
+        "longer budget help, and how far do they carry together?",
+        {"base": {},
+         "bce_dice": {"loss": "bce_dice"},
+         "128px": {"frame_size": 128},
+         "200x2.5ms": {"n_frames": 200, "dt_us": 2_500},
+         "30_epochs": {"epochs": 30},
+         "bce_dice_30_epochs": {"loss": "bce_dice", "epochs": 30}},
+        base={"recipe": "tiny_step"},
+    ),
+}
+"""The studies of issues 12, 13, 15 and 25, by name."""
+
+
+COLLAPSE_IOU = 0.2
+"""A run whose test IoU@0.3 is below this collapsed: its grid hardly depends on the input
+(collapsed runs scored 0.062; the lowest run that learned, 0.329; the mean shape, a grid
+that ignores the input, 0.126)."""
+
+
+def is_collapsed(record: dict) -> bool:
+    """True when a run record's test IoU@0.3 is below :data:`COLLAPSE_IOU`.
+
+    Examples
+    --------
+    >>> is_collapsed({"metrics": {"iou@0.3": 0.062}}), is_collapsed({"metrics": {"iou@0.3": 0.33}})
+    (True, False)
+    """
+    return record["metrics"]["iou@0.3"] < COLLAPSE_IOU
+
+
+NEUTRAL: dict[str, tuple[object, tuple[str, ...]]] = {
+    "train_scale": (1, ("train_scale", "extra")),
+    "noise": ("clean", ("noise", "noise_events", "test_noise")),
+}
+"""Protocol keys that change nothing about training at their base value, with that value and
+the keys that go with them (``train_scale`` 1 is data_small's own training set, ``noise``
+"clean" its own events; ``test_noise`` only adds test scores): :func:`canonical_protocol`
+drops them."""
+
+
+def canonical_protocol(protocol: dict) -> dict:
+    """``protocol`` without the keys that change nothing at their value (:data:`NEUTRAL`),
+    so ``data_scale``'s ``1x`` is the same training run as ``representation``'s ``binary``
+    or ``noise``'s ``train_clean`` (whose record only holds more test scores).
+
+    Examples
+    --------
+    >>> canonical_protocol({"epochs": 12, "train_scale": 1, "extra": "cache/extra_small"})
+    {'epochs': 12}
+    >>> canonical_protocol({"epochs": 12, "train_scale": 2, "extra": "x"})["train_scale"]
+    2
+    >>> canonical_protocol({"epochs": 12, "noise": "clean", "test_noise": ["high"]})
+    {'epochs': 12}
+    """
+    out = dict(protocol)
+    for key, (base, keys) in NEUTRAL.items():
+        if out.get(key, base) == base:
+            for dropped in keys:
+                out.pop(dropped, None)
+    return out
+
+
+def epochs_of(protocol: dict) -> int:
+    """Epochs of a run: ``epochs`` over data_small's training set, scaled by ``1 /
+    train_scale`` so that every size of the data_scale study takes the same number of
+    steps (within one batch per epoch).
+
+    Examples
+    --------
+    >>> [epochs_of({"epochs": 12, "train_scale": s}) for s in (0.25, 1, 4)]
+    [48, 12, 3]
+    """
+    return max(1, round(protocol["epochs"] / protocol.get("train_scale", 1)))
+

@@ -1,0 +1,120 @@
+"""A study's results as numbers: mean, spread and 95 % interval per config, the rule for a real
+difference, comparisons with a baseline, and the bar chart.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from e2vlib.metrics import interval95
+
+
+def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> list[dict]:
+    """Mean, standard deviation and 95 % interval of ``metric`` per config, in study order.
+
+    Each row: ``{"config", "params", "n", "mean", "std", "ci95": (low, high), "values"}``;
+    the interval is Student's t over the seeds (``std`` with ``ddof=1``; NaN for one seed).
+
+    Examples
+    --------
+    >>> runs = [{"config": "a", "params": {}, "seed": s, "metrics": {"iou@0.3": v}}
+    ...         for s, v in enumerate([0.40, 0.42, 0.44])]
+    >>> row = summarize({"runs": runs})[0]
+    >>> row["n"], round(row["mean"], 3), round(row["std"], 3)
+    (3, 0.42, 0.02)
+    >>> [round(v, 3) for v in row["ci95"]]   # 0.42 -+ 4.303 * 0.02 / sqrt(3)
+    [0.37, 0.47]
+    """
+
+    if not isinstance(results, dict):
+        results = json.loads(Path(results).read_text())
+    rows: dict[str, dict] = {}
+    for run in results["runs"]:
+        row = rows.setdefault(run["config"], {"config": run["config"],
+                                              "params": run.get("params", {}), "values": []})
+        row["values"].append(float(run["metrics"][metric]))
+    for row in rows.values():
+        values = np.asarray(row["values"])
+        row["n"] = len(values)
+        row["mean"] = float(values.mean())
+        row["std"] = float(values.std(ddof=1)) if len(values) > 1 else float("nan")
+        row["ci95"] = interval95(values)
+    return list(rows.values())
+
+
+def format_summary(rows: list[dict], metric: str = "iou@0.3") -> str:
+    """A markdown table of :func:`summarize` rows."""
+    lines = [f"| config | n | {metric} mean ± std | 95 % interval |", "| --- | --- | --- | --- |"]
+    for row in rows:
+        lines.append(f"| {row['config']} | {row['n']} | {row['mean']:.3f} ± {row['std']:.3f} | "
+                     f"{row['ci95'][0]:.3f}–{row['ci95'][1]:.3f} |")
+    return "\n".join(lines)
+
+
+def plot_summary(rows: list[dict], ax=None, metric: str = "iou@0.3",
+                 reference: float | None = None,
+                 title: str | None = None):
+    """Bar chart of :func:`summarize` rows: mean with 95 % interval error bars, seeds as dots.
+
+    ``reference`` draws a dashed line (e.g. the base config's mean). Returns the axes.
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(1.1 * len(rows) + 2, 3.2))
+    x = np.arange(len(rows))
+    means = [r["mean"] for r in rows]
+    errors = np.array([[r["mean"] - r["ci95"][0], r["ci95"][1] - r["mean"]] for r in rows]).T
+    ax.bar(x, means, color="#8fa8c8", width=0.6, yerr=np.nan_to_num(errors), capsize=4,
+           label="mean, 95 % interval")
+    for i, row in enumerate(rows):
+        ax.plot(np.full(len(row["values"]), i) + np.linspace(-0.12, 0.12, len(row["values"])),
+                row["values"], "o", color="#333333", markersize=3.5,
+                label="one seed" if i == 0 else None)
+    if reference is not None:
+        ax.axhline(reference, color="#d62728", linestyle="--", linewidth=1)
+    ax.set_xticks(x, [r["config"] for r in rows], rotation=20, ha="right")
+    ax.set_ylabel(f"test {metric}")
+    low = min(min(r["values"]) for r in rows)
+    ax.set_ylim(max(0.0, low - 0.1), min(1.0, max(max(r["values"]) for r in rows) + 0.06))
+    if title:
+        ax.set_title(title)
+    ax.legend(loc="lower right", fontsize=8)
+    return ax
+
+
+def is_real_difference(row: dict, base: dict) -> bool:
+    """True when the 95 % intervals of two :func:`summarize` rows do not overlap (the one
+    rule every study lesson uses for "a real difference"); False when either has one seed."""
+    low, high = row["ci95"]
+    base_low, base_high = base["ci95"]
+    if not all(np.isfinite([low, high, base_low, base_high])):
+        return False
+    return bool(low > base_high or high < base_low)
+
+
+def compare(rows: list[dict], baseline: str) -> list[dict]:
+    """Each config's difference from ``baseline``, with Welch's t-test p-value over seeds.
+
+    Returns ``[{"config", "difference", "p_value", "clear"}]`` where ``clear`` is
+    :func:`is_real_difference` (a conservative reading with 3 seeds).
+    """
+    from scipy import stats
+
+    base = next((r for r in rows if r["config"] == baseline), None)
+    if base is None:
+        raise ValueError(f"no config {baseline!r} among {[r['config'] for r in rows]}")
+    out = []
+    for row in rows:
+        if row is base:
+            continue
+        p = (float(stats.ttest_ind(row["values"], base["values"], equal_var=False).pvalue)
+             if row["n"] > 1 and base["n"] > 1 else float("nan"))
+        out.append({"config": row["config"], "difference": row["mean"] - base["mean"],
+                    "p_value": p, "clear": is_real_difference(row, base)})
+    return out
+

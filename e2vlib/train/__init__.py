@@ -1,0 +1,92 @@
+"""Training and evaluation of E2V: AdamW + binary cross-entropy, as in the paper.
+
+:func:`fit` trains (with the paper's BCE, or a focal or BCE + Dice loss from
+:mod:`e2vlib.losses`) with progress bars, keeps a per-epoch history, writes ``last.pt`` and
+``best.pt`` (by validation IoU at :data:`e2vlib.paper.IOU_THRESHOLD`) atomically every
+epoch, stores the data config in both, resumes exactly from ``last.pt``, and runs
+data-parallel when launched with ``torchrun``. :func:`evaluate` reports the Pix2Vox
+protocol (IoU at :data:`e2vlib.paper.IOU_THRESHOLDS` and F-scores, overall and per
+category, with mean-shape baselines), scored by :mod:`e2vlib.metrics`. Every public name is
+importable from here (``from e2vlib.train import fit, evaluate, TensorSet``); the code lives
+in five modules, each with one job:
+
+========================  ==================================================================
+``train.recipes``         :class:`Recipe`, :data:`RECIPES` (``"paper"``, ``"tiny"``,
+                          ``"tiny_step"``), :func:`get_recipe`, the learning rate per epoch
+                          (:func:`lr_schedule`) and per step with warm-up
+                          (:func:`lr_at_step`)
+``train.tensors``         :class:`TensorSet` (a split in memory, indexed like a dataset) and
+                          :func:`preload`
+``train.devices``         :func:`resolve_device`, :func:`bf16_is_fast`,
+                          :func:`to_channels_last`, :data:`PRECISIONS`,
+                          :func:`init_distributed_from_env`
+``train.loop``            :func:`fit`, :func:`init_output_prior` and what resuming checks
+                          (:func:`read_resume_state`)
+``train.evaluation``      :func:`predict`, :func:`evaluate`, :func:`category_mean_shapes`
+========================  ==================================================================
+
+``recipes``, ``tensors`` and ``devices`` import no other module of this package;
+``evaluation`` imports those three, ``loop`` all four; none imports this ``__init__``.
+The score tables (:func:`~e2vlib.metrics.score_predictions`,
+:func:`~e2vlib.metrics.format_table`, :data:`~e2vlib.metrics.METRIC_KEYS`) live in
+:mod:`e2vlib.metrics` and are re-exported here.
+
+Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
+"""
+
+from e2vlib.metrics import FSCORE_DISTANCES, METRIC_KEYS, format_table, score_predictions
+from e2vlib.train.devices import (
+    PRECISIONS,
+    bf16_is_fast,
+    init_distributed_from_env,
+    resolve_device,
+    to_channels_last,
+)
+from e2vlib.train.evaluation import VAL_BATCH, category_mean_shapes, evaluate, predict
+from e2vlib.train.loop import (
+    LEGACY_LOSS,
+    RESUME_KEYS,
+    fit,
+    init_output_prior,
+    read_resume_state,
+)
+from e2vlib.train.recipes import (
+    COSINE_FLOOR,
+    RECIPES,
+    WARMUP_STEPS,
+    Recipe,
+    get_recipe,
+    lr_at_step,
+    lr_schedule,
+)
+from e2vlib.train.tensors import TensorSet, preload
+
+__all__ = [
+    "COSINE_FLOOR",
+    "FSCORE_DISTANCES",
+    "LEGACY_LOSS",
+    "METRIC_KEYS",
+    "PRECISIONS",
+    "RECIPES",
+    "RESUME_KEYS",
+    "VAL_BATCH",
+    "WARMUP_STEPS",
+    "Recipe",
+    "TensorSet",
+    "bf16_is_fast",
+    "category_mean_shapes",
+    "evaluate",
+    "fit",
+    "format_table",
+    "get_recipe",
+    "init_output_prior",
+    "init_distributed_from_env",
+    "lr_at_step",
+    "lr_schedule",
+    "predict",
+    "preload",
+    "read_resume_state",
+    "resolve_device",
+    "score_predictions",
+    "to_channels_last",
+]
