@@ -57,7 +57,7 @@ SAMPLE_MODES = ("ssaa", "none")  # the datasets' anti-aliasing, and the fast opt
 # the stages of mesh_to_sample: (module, function) that it looks up when called
 STAGES = {"voxelize": (e2vlib.voxels, "voxelize"), "render": (e2vlib.render, "render_orbit"),
           "simulate": (e2vlib.simulate, "simulate_events"),
-          "frames": (e2vlib.data.samples, "events_to_frames")}
+          "frames": (e2vlib.data.samples, "orbit_input")}
 
 
 def cpu_seconds() -> float:

@@ -56,12 +56,14 @@ class PredictionCache(Mapping):
 
 
 def _frames_at(events: np.ndarray, sensor_size: tuple[int, int], dt_ms: float) -> np.ndarray:
-    """Binary frames of ``dt_ms`` covering the recording (0.5 s) from t = 0, as the dataset."""
-    from e2vlib.frames import accumulate
+    """Binary frames ``(n, H, W)`` uint8 of ``dt_ms`` covering the recording (0.5 s) from
+    t = 0 at the sensor's own pixels, as the dataset: :func:`e2vlib.inputs.orbit_input`
+    with ``frame_size=None``."""
+    from e2vlib.inputs import orbit_input
 
     dt_us = max(1, round(dt_ms * 1000))
     n = math.ceil(RECORDING_US / dt_us)
-    return accumulate(events, sensor_size, dt_us=dt_us, t0_us=0, n_frames=n)
+    return orbit_input(events, sensor_size, None, n_frames=n, dt_us=dt_us, t0_us=0)
 
 
 def explorer_view(

@@ -26,8 +26,7 @@ eleven modules, each with one job:
                            :func:`load_grey_video`
 ``data.samples``           one sample: :func:`mesh_to_sample` (mesh -> voxels, video,
                            events, frames), :class:`Sample`, :func:`save_sample`,
-                           :func:`load_sample`; :func:`events_to_frames`,
-                           :func:`events_to_model_input`
+                           :func:`load_sample`
 ``data.manifest``          ROOT/manifest.csv: :func:`write_manifest`, :func:`read_manifest`,
                            :func:`npz_digest`, :func:`manifest_digests`
 ``data.build``             :func:`build_dataset` (resumable, sharded),
@@ -42,10 +41,13 @@ eleven modules, each with one job:
 =========================  =================================================================
 
 ``checks`` imports only ``e2vlib.paper``; the others import the modules above them in this
-table (and ``e2vlib.frames``, ``io``, ``events``, ``files``, ``paper``; ``render``,
-``simulate``, ``shapes`` and ``voxels`` lazily); none imports this package's ``__init__``.
-``e2vlib.shards`` and ``e2vlib.dataset_checks`` are the old homes of ``data.shards`` and
-``data.checks``; they re-export them.
+table (and ``e2vlib.inputs``, ``frames``, ``io``, ``events``, ``files``, ``paper``;
+``render``, ``simulate``, ``shapes`` and ``voxels`` lazily); none imports this package's
+``__init__``. Events become frames in :mod:`e2vlib.inputs` (:func:`e2vlib.inputs.orbit_input`
+for the builder and SynthEVox3D scans); its older names :func:`events_to_frames` and
+:func:`events_to_model_input` are re-exported here. ``e2vlib.shards`` and
+``e2vlib.dataset_checks`` are the old homes of ``data.shards`` and ``data.checks``; they
+re-export them.
 
 Layout written by :func:`build_dataset` (``data_small/`` is one)::
 
@@ -122,14 +124,7 @@ from e2vlib.data.plan import (
     raw_event_ids,
     sample_seed,
 )
-from e2vlib.data.samples import (
-    Sample,
-    events_to_frames,
-    events_to_model_input,
-    load_sample,
-    mesh_to_sample,
-    save_sample,
-)
+from e2vlib.data.samples import Sample, load_sample, mesh_to_sample, save_sample
 from e2vlib.data.shards import MergeError, MergeReport, merge_datasets
 from e2vlib.data.synthevox3d import (
     SYNTHEVOX3D_SENSOR,
@@ -137,6 +132,7 @@ from e2vlib.data.synthevox3d import (
     synthevox3d_items,
     synthevox3d_time_scale,
 )
+from e2vlib.inputs import events_to_frames, events_to_model_input
 
 __all__ = [
     "DATASET_ENTRIES",

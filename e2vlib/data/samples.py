@@ -19,9 +19,8 @@ from e2vlib import paper
 from e2vlib.data.checks import MAX_FRAMES_PER_SAMPLE, DatasetError, npz_problem
 from e2vlib.data.config import BuildConfig
 from e2vlib.data.grey import nearest_frames, video_to_grey
-from e2vlib.events import EventError
 from e2vlib.files import atomic_path
-from e2vlib.frames import accumulate, downsample
+from e2vlib.inputs import orbit_input
 
 
 @dataclass
@@ -39,57 +38,6 @@ class Sample:
     sensor_size: tuple[int, int]
     grey: np.ndarray | None = None
     grey_index: np.ndarray | None = None
-
-
-def events_to_frames(events: np.ndarray, sensor_size: tuple[int, int], frame_size: int,
-                     t0_us: int = 0, n_frames: int = paper.N_EVENT_FRAMES,
-                     dt_us: int = paper.DT_US,
-                     windows: str = paper.FRAME_WINDOWS) -> np.ndarray:
-    """The model's input: ``n_frames`` binary frames of ``dt_us`` from ``t0_us``, max-pooled
-    to ``frame_size`` (defaults: the paper's 100 frames of 5 ms, our fixed windows).
-
-    Returns uint8 ``(n_frames, frame_size, frame_size)``; ``sensor_size`` must be square and
-    a multiple of ``frame_size``. Introduced in notebooks/04_building_the_dataset.ipynb.
-    """
-    width, height = sensor_size
-    if width != height or width % frame_size:
-        raise ValueError(
-            f"sensor {width}x{height} must be square and a multiple of frame_size {frame_size}"
-        )
-    frames = accumulate(events, sensor_size, dt_us=dt_us, t0_us=t0_us, n_frames=n_frames,
-                        windows=windows)
-    return downsample(frames, width // frame_size)
-
-
-def events_to_model_input(events: np.ndarray, sensor_size: tuple[int, int],
-                          frame_size: int, n_frames: int = paper.N_EVENT_FRAMES,
-                          dt_us: int = paper.DT_US,
-                          windows: str = paper.FRAME_WINDOWS) -> np.ndarray:
-    """``n_frames`` binary frames of ``dt_us`` from the first event, fitted to ``frame_size``.
-
-    For recordings of any sensor size: the frames are centre-cropped to the largest
-    square whose side is a multiple of ``frame_size`` and max-pooled down to it. Returns
-    uint8 ``(n_frames, frame_size, frame_size)``. Fewer than ``n_frames`` events raise
-    EventError: some frames would be empty by construction, and the model would give a
-    confident-looking grid from next to no evidence. Introduced in
-    notebooks/07_evaluation.ipynb.
-    """
-    if len(events) < n_frames:
-        raise EventError(f"{len(events)} event(s) cannot make the model's input: its "
-                         f"{n_frames} frames of {dt_us} us need at least {n_frames} events "
-                         "(one per frame; with fewer, frames are empty by construction and "
-                         "the model would answer from next to no evidence); give a recording "
-                         "of the whole orbit")
-    width, height = sensor_size
-    factor = min(width, height) // frame_size
-    if factor < 1:
-        raise ValueError(f"a {width}x{height} sensor is smaller than frame_size {frame_size}")
-    t0 = int(events["t"][0]) if len(events) else 0
-    frames = accumulate(events, sensor_size, dt_us=dt_us, t0_us=t0, n_frames=n_frames,
-                        windows=windows)
-    side = factor * frame_size
-    top, left = (height - side) // 2, (width - side) // 2
-    return downsample(frames[:, top:top + side, left:left + side], factor)
 
 
 def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
@@ -115,8 +63,8 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
                              contrast_neg=config.contrast, seed=seed,
                              **NOISE_LEVELS[config.noise])
     sensor_size = (config.resolution, config.resolution)
-    frames = events_to_frames(events, sensor_size, config.frame_size, n_frames=config.n_frames,
-                              dt_us=config.dt_us, windows=config.windows)
+    frames = orbit_input(events, sensor_size, config.frame_size, n_frames=config.n_frames,
+                         dt_us=config.dt_us, windows=config.windows)
     grey = grey_index = None
     if config.grey_video:
         grey_index = nearest_frames(t_us, config.n_frames, config.dt_us)

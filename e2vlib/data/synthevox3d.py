@@ -14,8 +14,8 @@ import numpy as np
 
 from e2vlib import paper
 from e2vlib.data.checks import DatasetError, npz_problem
-from e2vlib.data.samples import events_to_frames
 from e2vlib.events import EventError
+from e2vlib.inputs import orbit_input
 
 SYNTHEVOX3D_SENSOR = 512  # the paper rendered 512 x 512 and scaled to 256 x 256
 
@@ -89,4 +89,4 @@ def load_synthevox3d_scan(scan: Path, frame_size: int = 256) -> tuple[np.ndarray
     except EventError as err:
         raise ValueError(f"{scan}/events.npz: {err}") from err
     size = SYNTHEVOX3D_SENSOR
-    return events_to_frames(events, (size, size), frame_size, t0_us=0), voxels
+    return orbit_input(events, (size, size), frame_size, t0_us=0), voxels
