@@ -14,6 +14,13 @@ def resolve_device(device: str | torch.device = "auto") -> torch.device:
     """``"auto"`` -> CUDA if available, else CPU; ``"cpu"``/``"cuda"``/``"cuda:1"`` as given.
 
     Asking for CUDA on a machine without it raises a ValueError saying so.
+
+    Examples
+    --------
+    >>> resolve_device("cpu")
+    device(type='cpu')
+    >>> resolve_device("auto").type in ("cpu", "cuda")
+    True
     """
     if str(device) == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
@@ -35,6 +42,11 @@ def init_distributed_from_env() -> bool:
     """Join the process group that ``torchrun`` describes in the environment, if any.
 
     Uses NCCL when CUDA is available, else gloo (CPU). Returns True if distributed.
+
+    Examples
+    --------
+    >>> init_distributed_from_env()  # a plain run, not under torchrun: nothing to join
+    False
     """
     if int(os.environ.get("WORLD_SIZE", "1")) <= 1 or dist.is_initialized():
         return dist.is_initialized()
@@ -78,7 +90,13 @@ def _check_gradients(model: nn.Module, epoch: int, step: int) -> None:
 
 def bf16_is_fast(device: str | torch.device = "cpu") -> bool:
     """Whether ``device`` runs bfloat16 convolutions natively (CPU: AVX-512 BF16 or AMX,
-    through oneDNN; CUDA: compute capability 8.0 or newer)."""
+    through oneDNN; CUDA: compute capability 8.0 or newer).
+
+    Examples
+    --------
+    >>> bf16_is_fast("cpu") in (True, False)  # True only on a CPU with AVX-512 BF16 or AMX
+    True
+    """
     device = torch.device(device)
     if device.type == "cuda":
         return torch.cuda.is_available() and torch.cuda.is_bf16_supported()
@@ -90,7 +108,16 @@ def bf16_is_fast(device: str | torch.device = "cpu") -> bool:
 
 def to_channels_last(model: nn.Module) -> nn.Module:
     """Store every 5D weight as ``channels_last_3d`` and every 4D one as ``channels_last``,
-    in place (the values are unchanged); returns ``model``."""
+    in place (the values are unchanged); returns ``model``.
+
+    Examples
+    --------
+    >>> from e2vlib.model import build_e2v
+    >>> model = to_channels_last(build_e2v("tiny", seed=0, input_shape=(8, 16, 16)))
+    >>> conv = next(p for p in model.parameters() if p.ndim == 5)
+    >>> conv.is_contiguous(memory_format=torch.channels_last_3d)
+    True
+    """
     formats = {5: torch.channels_last_3d, 4: torch.channels_last}
     for tensor in [*model.parameters(), *model.buffers()]:
         if tensor.dim() in formats:

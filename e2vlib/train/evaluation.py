@@ -41,6 +41,14 @@ def predict(model: E2V, frames: torch.Tensor, device: str = "auto",
     -------
     torch.Tensor
         ``(N, 32, 32, 32)`` float32 on the CPU, ``sigmoid(logits)``.
+
+    Examples
+    --------
+    >>> from e2vlib.model import build_e2v
+    >>> model = build_e2v("tiny", seed=0, input_shape=(8, 16, 16))
+    >>> p = predict(model, torch.zeros(3, 8, 16, 16), device="cpu")
+    >>> p.shape, p.dtype, bool(((p >= 0) & (p <= 1)).all())
+    (torch.Size([3, 32, 32, 32]), torch.float32, True)
     """
     if not _is_whole(batch_size) or batch_size < 1:
         raise ValueError(f"batch_size must be a whole number >= 1, got {batch_size!r}")
@@ -92,6 +100,19 @@ def evaluate(
     ``fscore@1%`` and ``fscore@20%``. The baselines (needing ``train_data``) predict the
     training set's mean voxel grid, and per category the category's mean (an oracle that
     knows the category). Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> from e2vlib.model import build_e2v
+    >>> from e2vlib.train import init_output_prior
+    >>> voxels = torch.zeros(2, 32, 32, 32, dtype=torch.bool); voxels[:, :16] = True
+    >>> data = TensorSet(torch.zeros(2, 8, 16, 16, dtype=torch.uint8), voxels,
+    ...                  ["chair", "lamp"], ["c0", "l0"])
+    >>> model = build_e2v("tiny", seed=0, input_shape=(8, 16, 16))
+    >>> init_output_prior(model, 0.5)   # p is about 0.5 everywhere: all occupied at 0.3
+    >>> result = evaluate(model, data, device="cpu", fscore_points=512, progress=False)
+    >>> result["overall"]["iou@0.3"], sorted(result["per_category"])   # half the grid is right
+    (0.5, ['chair', 'lamp'])
     """
     test = preload(data, progress=progress)
     probabilities = predict(model, test.frames, device)
@@ -119,7 +140,17 @@ def evaluate(
 
 
 def category_mean_shapes(data: TensorSet) -> dict[str, torch.Tensor]:
-    """Mean voxel grid (occupancy frequency, ``(32, 32, 32)``) of each category."""
+    """Mean voxel grid (occupancy frequency, ``(32, 32, 32)``) of each category.
+
+    Examples
+    --------
+    >>> voxels = torch.zeros(3, 32, 32, 32, dtype=torch.bool); voxels[0] = voxels[2] = True
+    >>> data = TensorSet(torch.zeros(3, 4, 8, 8, dtype=torch.uint8), voxels,
+    ...                  ["chair", "chair", "lamp"], ["c0", "c1", "l0"])
+    >>> means = category_mean_shapes(data)
+    >>> float(means["chair"].mean()), float(means["lamp"].mean()), tuple(means["chair"].shape)
+    (0.5, 1.0, (32, 32, 32))
+    """
     cats = np.asarray(data.categories)
     return {c: data.voxels[torch.from_numpy(cats == c)].float().mean(0)
             for c in dict.fromkeys(data.categories)}

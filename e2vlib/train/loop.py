@@ -59,7 +59,7 @@ def init_output_prior(model: E2V, occupancy: float) -> None:
     >>> from e2vlib.model import build_e2v
     >>> model = build_e2v("tiny", seed=0, input_shape=(8, 16, 16))
     >>> init_output_prior(model, 0.2)
-    >>> round(float(torch.sigmoid(model.head.bias)[0]), 6)
+    >>> round(float(torch.sigmoid(model.head.bias.detach())[0]), 6)
     0.2
     """
     if not 0 < occupancy < 1:
@@ -167,6 +167,24 @@ def fit(
     Under ``torchrun`` the model is wrapped in DistributedDataParallel and each process
     trains on its share of every batch's samples; only rank 0 writes files.
     Introduced in notebooks/06_training.ipynb.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from e2vlib.model import build_e2v
+    >>> from e2vlib.train import TensorSet
+    >>> voxels = torch.zeros(4, 32, 32, 32, dtype=torch.bool); voxels[:, 8:24] = True
+    >>> data = TensorSet(torch.zeros(4, 8, 16, 16, dtype=torch.uint8), voxels,
+    ...                  ["chair"] * 4, ["a", "b", "c", "d"])
+    >>> model = build_e2v("tiny", seed=0, input_shape=(8, 16, 16))
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     history = fit(model, data, data, out, epochs=2, batch_size=2, device="cpu",
+    ...                   progress=False)
+    ...     files = sorted(p.name for p in Path(out).iterdir())
+    ...     last_epoch = read_resume_state(Path(out) / "last.pt", model, None,
+    ...                                    torch.device("cpu"))["epoch"]
+    >>> [h["epoch"] for h in history], files, last_epoch   # last.pt counts epochs from 0
+    ([1, 2], ['best.pt', 'history.json', 'last.pt'], 1)
     """
     from tqdm.auto import tqdm
 
@@ -332,7 +350,19 @@ def _check_sample_shape(model: E2V, got: tuple[int, ...], name: str) -> None:
 
 def read_resume_state(path: Path, model: E2V, data_config: dict | None,
                        device: torch.device, loss: str = LEGACY_LOSS) -> dict:
-    """Read ``last.pt`` for a resume and check it belongs to this model and data."""
+    """Read ``last.pt`` for a resume and check it belongs to this model and data.
+
+    Examples
+    --------
+    See :func:`fit`'s example; a missing file is named, with the fix:
+
+    >>> from e2vlib.model import build_e2v
+    >>> read_resume_state(Path("no/such/last.pt"), build_e2v("tiny", input_shape=(8, 16, 16)),
+    ...                   None, torch.device("cpu"))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: checkpoint no/such/last.pt does not exist; train one first ...
+    """
     state = read_checkpoint(path, map_location=device)
     missing = [key for key in RESUME_KEYS if key not in state]
     if missing:

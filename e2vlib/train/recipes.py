@@ -35,6 +35,16 @@ class Recipe:
     step, start the output layer at the training labels' mean occupancy instead of at
     p = 0.5 (:func:`~e2vlib.train.init_output_prior`). Values are checked: a ValueError
     names a bad one.
+
+    Examples
+    --------
+    >>> Recipe(lr=1e-3, batch_size=8, epochs=4)  # doctest: +NORMALIZE_WHITESPACE
+    Recipe(lr=0.001, batch_size=8, epochs=4, weight_decay=0.01, cosine=False, per_step=False,
+           warmup_steps=0, output_prior=False)
+    >>> Recipe(lr=0.0, batch_size=8, epochs=4)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: invalid training recipe: lr must be a finite number > 0, got 0.0: ...
     """
 
     lr: float

@@ -109,6 +109,20 @@ def preload(dataset, progress: bool = False) -> TensorSet:
 
     Frames stay uint8 (4x smaller than float); batches are converted on the fly. The
     dataset's ``config`` (its build settings, when it has them) goes along.
+
+    Examples
+    --------
+    >>> class Two:  # anything with arrays(i), categories and ids, as E2VDataset has
+    ...     categories, ids, config = ["chair", "lamp"], ["c0", "l0"], None
+    ...     def __len__(self):
+    ...         return 2
+    ...     def arrays(self, i):
+    ...         return np.full((4, 8, 8), i, np.uint8), np.zeros((32, 32, 32), bool)
+    >>> data = preload(Two())
+    >>> tuple(data.frames.shape), data.frames.dtype, data.ids, int(data.frames[1].max())
+    ((2, 4, 8, 8), torch.uint8, ['c0', 'l0'], 1)
+    >>> preload(data) is data   # a TensorSet is already in memory
+    True
     """
     if isinstance(dataset, TensorSet):
         return dataset
