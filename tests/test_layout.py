@@ -148,3 +148,86 @@ def test_importing_the_view_layer_loads_no_torch_pyvista_or_widgets(module):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=120)
     assert out.stdout.strip() == "[]"
+
+
+# ----------------------------------------------------------------------------- stages
+
+SHARED = {"paper", "files", "events", "metrics", "losses"}
+"""Modules every stage may import: the paper's facts, crash-safe writing, the event array,
+scoring of plain arrays (IoU, F-score) and the losses."""
+
+STAGES: list[set[str]] = [
+    {"shapes"},
+    {"voxels", "orbit", "_headless"},
+    {"render"},
+    {"simulate"},
+    {"io"},
+    {"frames", "frames_fast"},
+    {"inputs"},
+    {"data", "dataset_checks", "shards", "real_meshes"},
+    {"model"},
+    {"train"},
+    {"geometry", "viz"},
+    {"experiments", "geometry_study", "real_study", "explore", "figures", "reports",
+     "reconstruct"},
+    {"__main__", "cli"},
+]
+"""DESIGN.md's data flow as import stages, earliest first; a package is one module here."""
+
+
+def stage_of(module: str) -> int | None:
+    top = module.partition(".")[0]
+    return next((i for i, names in enumerate(STAGES) if top in names), None)
+
+
+def stage_violations(graph: dict[str, set[str]]) -> list[str]:
+    """``"a (stage i) imports b (stage j > i)"`` for every import of a later stage."""
+    out = []
+    for module, targets in sorted(graph.items()):
+        here = stage_of(module)
+        for target in sorted(targets):
+            if target.partition(".")[0] in SHARED:
+                continue
+            there = stage_of(target)
+            if here is not None and there is not None and there > here:
+                out.append(f"{module} (stage {here}) imports {target} (stage {there})")
+    return out
+
+
+def test_every_module_has_a_stage_and_no_stage_imports_a_later_one():
+    graph = import_graph()
+    tops = {m.partition(".")[0] for m in graph}
+    unplaced = sorted(t for t in tops - SHARED if stage_of(t) is None)
+    assert unplaced == [], f"give these modules a stage in STAGES: {unplaced}"
+    assert stage_violations(graph) == []
+
+
+def test_the_stage_check_catches_an_import_of_a_later_stage():
+    graph = {"data.build": {"model", "frames", "paper"}, "model": {"metrics"},
+             "frames": {"events"}}
+    assert stage_violations(graph) == ["data.build (stage 7) imports model (stage 8)"]
+    assert stage_violations({"train.loop": {"model", "data"}}) == []
+
+
+MAX_LINES = 600
+
+
+def test_no_module_exceeds_600_lines():
+    long = {str(p.relative_to(PACKAGE)): n for p in PACKAGE.rglob("*.py")
+            if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert long == {}, f"split these modules by job (at most {MAX_LINES} lines): {long}"
+
+
+def test_the_module_map_in_the_package_docstring_and_the_readme_is_current():
+    sys.path.insert(0, str(PACKAGE.parent / "tools"))
+    try:
+        import module_map
+    finally:
+        sys.path.pop(0)
+    stale = [str(path.relative_to(PACKAGE.parent)) for path, text in module_map.current().items()
+             if path.read_text() != text]
+    assert stale == [], f"the module map is out of date in {stale}: run " \
+                        "`python tools/module_map.py --write`"
+    rows = module_map.module_rows()
+    assert ("metrics.py", len((PACKAGE / "metrics.py").read_text().splitlines())) in \
+        [(name, n) for name, n, _ in rows]

@@ -1,0 +1,109 @@
+"""The module map of e2vlib: every module, its lines and its purpose, generated from the code.
+
+The map stands in two places, ``e2vlib/__init__.py``'s docstring and the README's "Layout"
+section, each between the markers ``module map:`` and its end marker; ``--write`` rewrites
+both from the code, and ``tests/test_layout.py`` fails when either is out of date.
+
+Usage: ``python tools/module_map.py [--write]`` (prints the map; ``--write`` updates both).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import re
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGE = REPO / "e2vlib"
+INIT = PACKAGE / "__init__.py"
+README = REPO / "README.md"
+BEGIN, END = "<!-- module map: begin -->", "<!-- module map: end -->"
+DOC_BEGIN, DOC_END = "Module map (", "End of the module map."
+WIDTH = 92  # every line of the map fits the 100-character limit inside the docstring
+
+
+def purpose(path: Path) -> str:
+    """The first sentence of a module's docstring (``""`` without one), on one line."""
+    doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+    first = " ".join(doc.strip().split("\n\n")[0].split())
+    sentence = re.split(r"(?<=[a-z0-9)`])\. ", first)[0].rstrip(".")
+    sentence = re.sub(r":[a-z]+:`~?(?:[\w.]+\.)?([\w]+)`", r"\1", sentence)  # :func:`a.b` -> b
+    return sentence.replace("``", "")
+
+
+def lines(path: Path) -> int:
+    return len(path.read_text().splitlines())
+
+
+def module_rows(package: Path = PACKAGE) -> list[tuple[str, int, str]]:
+    """``(name, lines, purpose)`` of every module, a package first (its ``__init__``'s purpose,
+    the lines of all its modules) and then its modules, indented; sorted by name."""
+    rows = []
+    for path in sorted(package.iterdir()):
+        if path.name.startswith("__pycache__"):
+            continue
+        if path.is_dir() and (path / "__init__.py").exists():
+            members = sorted(p for p in path.glob("*.py"))
+            total = sum(lines(p) for p in members)
+            rows.append((f"{path.name}/", total, purpose(path / "__init__.py")))
+            rows += [(f"  {p.name}", lines(p), purpose(p)) for p in members
+                     if p.name != "__init__.py"]
+        elif path.suffix == ".py" and path.name != "__init__.py":
+            rows.append((path.name, lines(path), purpose(path)))
+    return rows
+
+
+def render(rows: list[tuple[str, int, str]], indent: str = "") -> str:
+    """The map as aligned text lines, each at most :data:`WIDTH` characters after ``indent``."""
+    name_width = max(len(name) for name, _, _ in rows)
+    out = []
+    for name, count, text in rows:
+        head = f"{name:<{name_width}} {count:>5}  "
+        room = WIDTH - len(head)
+        if len(text) > room and ": " in text:  # "Datasets: build ..." -> "Datasets"
+            text = text.split(": ")[0]
+        if len(text) > room:
+            text = text[:room - 3].rsplit(" ", 1)[0].rstrip(",;(") + " ..."
+        out.append((indent + head + text).rstrip())
+    return "\n".join(out)
+
+
+def doc_block() -> str:
+    total = sum(count for name, count, _ in module_rows() if not name.startswith(" "))
+    return (f"{DOC_BEGIN}``python tools/module_map.py --write``; {total:,} lines)::\n\n"
+            + render(module_rows(), "    ") + f"\n\n{DOC_END}")
+
+
+def readme_block() -> str:
+    return f"{BEGIN}\n```\n{render(module_rows())}\n```\n{END}"
+
+
+def replace_between(text: str, begin: str, end: str, block: str, where: Path) -> str:
+    start, stop = text.find(begin), text.find(end)
+    if start < 0 or stop < 0:
+        raise SystemExit(f"{where} has no module map markers ({begin!r} ... {end!r})")
+    return text[:start] + block + text[stop + len(end):]
+
+
+def current() -> dict[Path, str]:
+    """The files as they would be with an up-to-date map."""
+    return {INIT: replace_between(INIT.read_text(), DOC_BEGIN, DOC_END, doc_block(), INIT),
+            README: replace_between(README.read_text(), BEGIN, END, readme_block(), README)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--write", action="store_true", help="update e2vlib/__init__.py and "
+                        "README.md")
+    args = parser.parse_args()
+    print(render(module_rows()))
+    if args.write:
+        for path, text in current().items():
+            if path.read_text() != text:
+                path.write_text(text)
+                print(f"updated {path.relative_to(REPO)}")
+
+
+if __name__ == "__main__":
+    main()
