@@ -318,3 +318,53 @@ def test_the_render_study_names_the_command_that_builds_its_data(monkeypatch, tm
     monkeypatch.setitem(experiments.DATA_COMMANDS, missing, "python -m e2vlib make-data X")
     with pytest.raises(FileNotFoundError, match="make-data X"):
         load_split({**STUDIES["render"].protocol(quick=True), "data": missing}, "test")
+
+
+def test_cache_commands_build_data_smalls_objects_with_the_stated_changes():
+    import e2vlib.experiments as experiments
+    from e2vlib.__main__ import _build_config, build_parser
+
+    small = json.loads((experiments.REPO / "data_small" / "config.json").read_text())
+    assert BuildConfig(**experiments.SMALL_SETTINGS) == BuildConfig.from_dict(
+        {**small, "raw_events_per_category": 1})
+    expected = {
+        experiments.EVENTS_COMMAND: {"raw_events_per_category": 64, "grey_video": True},
+        experiments.NOISE_COMMANDS["medium"]: {"raw_events_per_category": 64,
+                                                "noise": "medium"},
+        experiments.NOISE_COMMANDS["high"]: {"raw_events_per_category": 64, "noise": "high",
+                                              "splits": ["test"]},
+        experiments.EXTRA_COMMAND: {"seed": 1, "per_category": 156},
+    }
+    for command, changes in expected.items():
+        args = build_parser().parse_args(command.split()[3:])
+        assert _build_config(args) == BuildConfig.from_dict({**small, **changes}), command
+        assert args.workers == experiments.BUILD_WORKERS
+
+
+def test_the_stability_and_capstone_studies_share_their_128px_runs():
+    stability, capstone = STUDIES["stability"], STUDIES["capstone"]
+    for study in (stability, capstone):
+        assert study.protocol()["recipe"] == "tiny_step"
+    same = [canonical_protocol({**s.protocol(), **s.configs["128px"]})
+            for s in (stability, capstone)]
+    assert same[0] == same[1] and same[0]["frame_size"] == 128
+    # the base recipe of every earlier study is untouched: its records stay comparable
+    assert STUDIES["time"].protocol()["recipe"] == "tiny"
+    assert capstone.configs["bce_dice"] == {"loss": "bce_dice"}
+    assert epochs_of({**capstone.protocol(), **capstone.configs["30_epochs"]}) == 30
+
+
+def test_a_run_below_the_collapse_line_is_called_collapsed():
+    from e2vlib.experiments import COLLAPSE_IOU, is_collapsed
+
+    assert is_collapsed({"metrics": {"iou@0.3": 0.062}})  # time/128px seed 1, recipe tiny
+    assert not is_collapsed({"metrics": {"iou@0.3": 0.329}})  # the weakest run that learned
+    # of every recorded run of the earlier studies, exactly the two known ones collapsed
+    from e2vlib.experiments import load_results
+
+    collapsed = sorted(f"{study}/{run['config']}/{run['seed']}"
+                       for study in ("representation", "time", "encoder", "loss", "input",
+                                     "noise", "data_scale", "render")
+                       for run in load_results(study)["runs"] if is_collapsed(run))
+    assert collapsed == ["encoder/cnn_gru/1", "time/128px/1"]
+    assert COLLAPSE_IOU > 0.126  # a grid that ignores the input (the mean shape) is below it
