@@ -91,7 +91,6 @@ from e2vlib.experiments.runner import (
 from e2vlib.experiments.studies import (
     BASE,
     COLLAPSE_IOU,
-    GREY_INPUTS,
     NEUTRAL,
     QUICK,
     STUDIES,
@@ -108,6 +107,7 @@ from e2vlib.experiments.summary import (
     plot_summary,
     summarize,
 )
+from e2vlib.inputs import GREY_INPUTS
 
 __all__ = [
     "BASE", "BUILD_WORKERS", "COLLAPSE_IOU", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE",

@@ -22,7 +22,8 @@ from e2vlib.experiments.caches import (
     STORAGE_SETTINGS,
     cache_command,
 )
-from e2vlib.experiments.studies import GREY_INPUTS, epochs_of
+from e2vlib.experiments.studies import epochs_of
+from e2vlib.inputs import GREY_INPUTS, TensorSet, grey_input, preload
 
 
 def _needs_events(protocol: dict, stored: dict) -> bool:
@@ -126,32 +127,6 @@ def _input_key(protocol: dict, split: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def grey_input(grey: np.ndarray, representation: str, frame_size: int) -> np.ndarray:
-    """The model input made from a stored grey video ``(n_frames, S, S)`` uint8: grey levels
-    in [0, 1] as float16, block-averaged to ``frame_size``; ``"grey_single"`` keeps only the
-    first frame, ``(1, frame_size, frame_size)``.
-
-    Examples
-    --------
-    >>> grey = np.arange(2 * 4 * 4, dtype=np.uint8).reshape(2, 4, 4) * 5
-    >>> x = grey_input(grey, "grey_single", 2)   # block (0, 0): (0 + 5 + 20 + 25) / 4 / 255
-    >>> x.shape, x.dtype, round(float(x[0, 0, 0]), 3)
-    ((1, 2, 2), dtype('float16'), 0.049)
-    """
-    from e2vlib.frames import downsample
-
-    if representation not in GREY_INPUTS:
-        raise ValueError(f"unknown grey input {representation!r}; choose one of "
-                         f"{', '.join(GREY_INPUTS)}")
-    frames = np.asarray(grey)[:1] if representation == "grey_single" else np.asarray(grey)
-    factor = frames.shape[-1] // frame_size
-    if factor * frame_size != frames.shape[-1]:
-        raise ValueError(f"frame_size {frame_size} must divide the grey video's "
-                         f"{frames.shape[-1]} px")
-    means = downsample(frames.astype(np.float32), factor, "sum") / (factor * factor * 255.0)
-    return means.astype(np.float16)
-
-
 def _tensors(protocol: dict, root: str | os.PathLike, split: str,
              per_category: int | dict | None, progress: bool):
     """One split of the dataset at ``root`` as the protocol's inputs (see load_split)."""
@@ -159,7 +134,6 @@ def _tensors(protocol: dict, root: str | os.PathLike, split: str,
 
     from e2vlib.data import E2VDataset
     from e2vlib.frames import downsample
-    from e2vlib.train import TensorSet, preload
 
     dataset = E2VDataset(root, split)
     keep = _first_per_category(dataset.categories, per_category)
@@ -235,7 +209,6 @@ def load_split(protocol: dict, split: str, progress: bool = False):
     """
     import torch
 
-    from e2vlib.train import TensorSet
 
     key = _input_key(protocol, split)
     if key in _MEMORY:

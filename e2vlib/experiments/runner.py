@@ -17,13 +17,13 @@ from e2vlib.experiments.caches import DEFAULT_OUT
 from e2vlib.experiments.loader import load_split, run_size
 from e2vlib.experiments.provenance import cpu_name, git_commit
 from e2vlib.experiments.studies import (
-    GREY_INPUTS,
     STUDIES,
     THRESHOLDS,
     canonical_protocol,
     epochs_of,
 )
 from e2vlib.files import atomic_path
+from e2vlib.inputs import GREY_INPUTS
 
 
 def best_threshold(probabilities, voxels, thresholds: Iterable[float] = THRESHOLDS) -> float:

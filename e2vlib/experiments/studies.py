@@ -11,13 +11,6 @@ import numpy as np
 from e2vlib import paper
 from e2vlib.experiments.caches import EVENTS_CACHE, EXTRA_CACHE, NOISE_CACHE, RENDER_CACHE
 
-GREY_INPUTS: dict[str, str] = {
-    "grey_video": "the rendered grey frames of the same orbit at the event frames' times",
-    "grey_single": "one grey view (the orbit's first frame), for a 2D encoder",
-}
-"""Inputs of the input study that are not events (read from the cache's grey videos)."""
-
-
 BASE: dict = {
     "data": "data_small",
     "events": str(EVENTS_CACHE),

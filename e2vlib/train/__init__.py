@@ -8,15 +8,13 @@ data-parallel when launched with ``torchrun``. :func:`evaluate` reports the Pix2
 protocol (IoU at :data:`e2vlib.paper.IOU_THRESHOLDS` and F-scores, overall and per
 category, with mean-shape baselines), scored by :mod:`e2vlib.metrics`. Every public name is
 importable from here (``from e2vlib.train import fit, evaluate, TensorSet``); the code lives
-in five modules, each with one job:
+in four modules, each with one job:
 
 ========================  ==================================================================
 ``train.recipes``         :class:`Recipe`, :data:`RECIPES` (``"paper"``, ``"tiny"``,
                           ``"tiny_step"``), :func:`get_recipe`, the learning rate per epoch
                           (:func:`lr_schedule`) and per step with warm-up
                           (:func:`lr_at_step`)
-``train.tensors``         :class:`TensorSet` (a split in memory, indexed like a dataset) and
-                          :func:`preload`
 ``train.devices``         :func:`resolve_device`, :func:`bf16_is_fast`,
                           :func:`to_channels_last`, :data:`PRECISIONS`,
                           :func:`init_distributed_from_env`
@@ -25,15 +23,17 @@ in five modules, each with one job:
 ``train.evaluation``      :func:`predict`, :func:`evaluate`, :func:`category_mean_shapes`
 ========================  ==================================================================
 
-``recipes``, ``tensors`` and ``devices`` import no other module of this package;
-``evaluation`` imports those three, ``loop`` all four; none imports this ``__init__``.
-The score tables (:func:`~e2vlib.metrics.score_predictions`,
-:func:`~e2vlib.metrics.format_table`, :data:`~e2vlib.metrics.METRIC_KEYS`) live in
-:mod:`e2vlib.metrics` and are re-exported here.
+``recipes`` and ``devices`` import no other module of this package; ``evaluation`` imports
+those two, ``loop`` all three; none imports this ``__init__``. :class:`TensorSet` and
+:func:`preload` (a split held in memory) live in :mod:`e2vlib.inputs` and are re-exported
+here, as are the score tables
+(:func:`~e2vlib.metrics.score_predictions`, :func:`~e2vlib.metrics.format_table`,
+:data:`~e2vlib.metrics.METRIC_KEYS`) of :mod:`e2vlib.metrics`.
 
 Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
 """
 
+from e2vlib.inputs.tensors import TensorSet, preload
 from e2vlib.metrics import FSCORE_DISTANCES, METRIC_KEYS, format_table, score_predictions
 from e2vlib.train.devices import (
     PRECISIONS,
@@ -59,7 +59,6 @@ from e2vlib.train.recipes import (
     lr_at_step,
     lr_schedule,
 )
-from e2vlib.train.tensors import TensorSet, preload
 
 __all__ = [
     "COSINE_FLOOR",

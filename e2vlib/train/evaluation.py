@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from e2vlib.inputs.tensors import TensorSet, preload
 from e2vlib.metrics import iou, score_split
 from e2vlib.model import E2V
 from e2vlib.paper import GRID_SIDE, IOU_THRESHOLD
 from e2vlib.train.devices import _model_device, resolve_device
 from e2vlib.train.recipes import _is_whole
-from e2vlib.train.tensors import TensorSet, preload
 
 VAL_BATCH = 16
 """Samples per forward pass when validating and predicting (no gradients: memory is small)."""

@@ -16,6 +16,7 @@ import torch.distributed as dist
 from torch import nn
 
 from e2vlib.files import atomic_path
+from e2vlib.inputs.tensors import _config_dict, preload
 from e2vlib.losses import LOSSES, make_loss
 from e2vlib.model import (
     E2V,
@@ -37,7 +38,6 @@ from e2vlib.train.devices import (
 )
 from e2vlib.train.evaluation import _validate
 from e2vlib.train.recipes import Recipe, _is_whole, get_recipe, lr_at_step, lr_schedule
-from e2vlib.train.tensors import _config_dict, preload
 
 LEGACY_LOSS = "bce"
 """The loss of checkpoints written before the loss was recorded: fit only had BCE then."""

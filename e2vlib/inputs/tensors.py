@@ -1,5 +1,5 @@
-"""A split held in memory: :class:`TensorSet`, and :func:`preload`, which fills one from a dataset.
-"""
+"""A split held in memory: :class:`TensorSet` (model inputs and labels as tensors, indexed like
+a dataset), and :func:`preload`, which fills one from a dataset."""
 
 from __future__ import annotations
 

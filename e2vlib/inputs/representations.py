@@ -3,7 +3,7 @@
 Every representation turns the events of one 0.5 s orbit into ``(D, S, S)`` for one
 channel or ``(C, D, S, S)`` for several: ``D`` time windows of ``S x S`` pixels, max- or
 sum-pooled from the sensor. The paper uses only ``"binary"`` (Eq. 4); the others answer its
-future-work question about other representations (see ``../shared/PAPER.md``).
+future-work question about other representations (``e2vlib.paper`` holds its words).
 
 Two clocks need two functions; pick by where the events come from:
 
@@ -323,3 +323,34 @@ def events_to_model_input(events: np.ndarray, sensor_size: tuple[int, int],
     """
     return recording_input(events, sensor_size, frame_size, n_frames=n_frames, dt_us=dt_us,
                            windows=windows)
+
+
+GREY_INPUTS: dict[str, str] = {
+    "grey_video": "the rendered grey frames of the same orbit at the event frames' times",
+    "grey_single": "one grey view (the orbit's first frame), for a 2D encoder",
+}
+"""Inputs of the input study that are not events (read from the cache's grey videos)."""
+
+
+def grey_input(grey: np.ndarray, representation: str, frame_size: int) -> np.ndarray:
+    """The model input made from a stored grey video ``(n_frames, S, S)`` uint8: grey levels
+    in [0, 1] as float16, block-averaged to ``frame_size``; ``"grey_single"`` keeps only the
+    first frame, ``(1, frame_size, frame_size)``.
+
+    Examples
+    --------
+    >>> grey = np.arange(2 * 4 * 4, dtype=np.uint8).reshape(2, 4, 4) * 5
+    >>> x = grey_input(grey, "grey_single", 2)   # block (0, 0): (0 + 5 + 20 + 25) / 4 / 255
+    >>> x.shape, x.dtype, round(float(x[0, 0, 0]), 3)
+    ((1, 2, 2), dtype('float16'), 0.049)
+    """
+    if representation not in GREY_INPUTS:
+        raise ValueError(f"unknown grey input {representation!r}; choose one of "
+                         f"{', '.join(GREY_INPUTS)}")
+    frames = np.asarray(grey)[:1] if representation == "grey_single" else np.asarray(grey)
+    factor = frames.shape[-1] // frame_size
+    if factor * frame_size != frames.shape[-1]:
+        raise ValueError(f"frame_size {frame_size} must divide the grey video's "
+                         f"{frames.shape[-1]} px")
+    means = downsample(frames.astype(np.float32), factor, "sum") / (factor * factor * 255.0)
+    return means.astype(np.float16)
