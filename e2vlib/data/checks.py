@@ -36,17 +36,37 @@ _SHA256 = re.compile(r"[0-9a-f]{64}")
 
 class DatasetError(ValueError):
     """A dataset folder that cannot be read as it is: the message names the file, the
-    sample or row, and the fix."""
+    sample or row, and the fix.
+
+    Examples
+    --------
+    >>> issubclass(DatasetError, ValueError)  # callers that catch ValueError catch it too
+    True
+    """
 
 
 def npz_problem(err: Exception) -> str:
     """What ``np.load`` found wrong, without its advice to unpickle: it calls any file that
-    is not a zip or ``.npy`` "pickled data", and e2vlib never unpickles."""
+    is not a zip or ``.npy`` "pickled data", and e2vlib never unpickles.
+
+    Examples
+    --------
+    >>> npz_problem(ValueError("Cannot load file containing pickled data"))
+    'neither a zip of arrays nor a .npy file'
+    >>> npz_problem(OSError("disk error"))
+    'disk error'
+    """
     return "neither a zip of arrays nor a .npy file" if "pickle" in str(err) else str(err)
 
 
 def rebuild_hint(root: str | os.PathLike) -> str:
-    """The command that finishes (resumably) the build of the dataset in ``root``."""
+    """The command that finishes (resumably) the build of the dataset in ``root``.
+
+    Examples
+    --------
+    >>> rebuild_hint("data_chairs")
+    '`python -m e2vlib make-data --out data_chairs ...` with its settings (resumable)'
+    """
     return f"`python -m e2vlib make-data --out {root} ...` with its settings (resumable)"
 
 
@@ -55,6 +75,8 @@ def check_id(sample_id: object, where: str) -> str:
     with a dot, at most 128 characters), else a DatasetError: ids are joined into paths,
     so ``../x``, ``/etc/x`` or ``a/b`` would read outside the dataset.
 
+    Examples
+    --------
     >>> check_id("chair_0003", "manifest.csv")
     'chair_0003'
     >>> check_id("../../x", "manifest.csv")  # doctest: +ELLIPSIS
@@ -72,7 +94,19 @@ def check_id(sample_id: object, where: str) -> str:
 
 def inside(root: Path, path: Path) -> Path:
     """``path`` if it resolves (symlinks followed) to a place inside ``root``, else a
-    DatasetError: a dataset only ever reads files in its own folder."""
+    DatasetError: a dataset only ever reads files in its own folder.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> inside(root, root / "samples" / "chair_0000.npz") == root / "samples" / "chair_0000.npz"
+    True
+    >>> inside(root, root / ".." / "elsewhere.npz")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.data.checks.DatasetError: ... points outside the dataset ...
+    """
     real = path.resolve()
     if not real.is_relative_to(root.resolve()):
         raise DatasetError(f"{path} points outside the dataset {root} (to {real}); a dataset "
@@ -118,7 +152,22 @@ def read_manifest_rows(root: str | os.PathLike) -> list[dict]:
     n_events present; a plain-name id (:func:`check_id`) listed once; a split of
     train/val/test (exact case); a category of :data:`e2vlib.paper.CATEGORIES`; seed and
     n_events whole numbers (returned as int); ``sha256``, where given, 64 hex digits.
-    Raises FileNotFoundError when there is no manifest, DatasetError naming the row."""
+    Raises FileNotFoundError when there is no manifest, DatasetError naming the row.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> header = "id,category,split,seed,n_events"
+    >>> _ = (root / "manifest.csv").write_text(header + "\\nchair_0000,chair,test,7,1200")
+    >>> read_manifest_rows(root)
+    [{'id': 'chair_0000', 'category': 'chair', 'split': 'test', 'seed': 7, 'n_events': 1200}]
+    >>> _ = (root / "manifest.csv").write_text(header + "\\nchair_0000,chair,Test,7,1200")
+    >>> read_manifest_rows(root)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.data.checks.DatasetError: ...line 2 (sample 'chair_0000'): split 'Test' is not one of ...
+    """
     root = Path(root)
     path = root / "manifest.csv"
     if not path.exists():
@@ -184,7 +233,21 @@ def read_config(root: str | os.PathLike) -> dict:
     ``resolution``, ``n_frames``, ``dt_us``, ``per_category`` positive whole numbers (JSON
     numbers, not strings), ``windows`` fixed or paper, ``categories`` a list of known
     names, and a frame stack of at most :data:`MAX_FRAMES_PER_SAMPLE` values. Raises
-    DatasetError naming the file, the value and the fix."""
+    DatasetError naming the file, the value and the fix.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> _ = (root / "config.json").write_text('{"frame_size": 64, "n_frames": 100}')
+    >>> read_config(root)
+    {'frame_size': 64, 'n_frames': 100}
+    >>> _ = (root / "config.json").write_text('{"frame_size": "64"}')  # a string, not a number
+    >>> read_config(root)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.data.checks.DatasetError: ...config.json: frame_size must be a whole number >= 1 ...
+    """
     path = Path(root) / "config.json"
     text = _read_text(path, MAX_CONFIG_BYTES, "config")
     try:

@@ -173,7 +173,15 @@ class BuildConfig:
 
 def frame_settings(config: dict | None) -> dict | None:
     """The frame-making fields of a dataset config dict (``n_frames``, ``dt_us``,
-    ``windows``, ``frame_size``), with the defaults of older configs filled in."""
+    ``windows``, ``frame_size``), with the defaults of older configs filled in.
+
+    Examples
+    --------
+    >>> frame_settings({"frame_size": 64})  # an older config: the settings it was built with
+    {'n_frames': 100, 'dt_us': 5000, 'windows': 'fixed', 'frame_size': 64}
+    >>> frame_settings({"n_frames": 20, "dt_us": 25000})["frame_size"] is None
+    True
+    """
     if config is None:
         return None
     return {
@@ -187,7 +195,16 @@ def frame_settings(config: dict | None) -> dict | None:
 def dataset_config(root: str | os.PathLike) -> dict:
     """ROOT/config.json, checked (:func:`e2vlib.data.checks.read_config`; a full build
     config also as :class:`BuildConfig`), with :func:`frame_settings` filled in. Raises
-    :class:`DatasetError` naming the file and the bad value."""
+    :class:`DatasetError` naming the file and the bad value.
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> _ = (root / "config.json").write_text(json.dumps({"frame_size": 32}))
+    >>> dataset_config(root)
+    {'frame_size': 32, 'n_frames': 100, 'dt_us': 5000, 'windows': 'fixed'}
+    """
     config = read_config(root)
     if {"categories", "per_category"} <= set(config):
         try:

@@ -27,7 +27,17 @@ def rendered_times_us(config: BuildConfig) -> np.ndarray:
     """Time stamps (int64 us, shape ``(n_rendered,)``) of the video frames that
     :func:`mesh_to_sample` renders for ``config``: ``n_rendered = oversample * (120 - 1)
     + 1`` frames at ``oversample * 240`` fps, as :func:`e2vlib.render.render_orbit`
-    stamps them (frame ``i`` at ``round(i * 1e6 / (oversample * 240))``)."""
+    stamps them (frame ``i`` at ``round(i * 1e6 / (oversample * 240))``).
+
+    Examples
+    --------
+    >>> config = BuildConfig(categories=("chair",), per_category=1, oversample=1)
+    >>> t = rendered_times_us(config)  # 120 frames at 240 fps
+    >>> len(t), t[:4].tolist()
+    (120, [0, 4167, 8333, 12500])
+    >>> len(rendered_times_us(BuildConfig(categories=("chair",), per_category=1, oversample=3)))
+    358
+    """
     k = int(config.oversample)
     n = k * (paper.N_VIDEO_FRAMES - 1) + 1
     return np.round(np.arange(n) * 1e6 / (k * float(paper.VIDEO_FPS))).astype(np.int64)
@@ -35,7 +45,14 @@ def rendered_times_us(config: BuildConfig) -> np.ndarray:
 
 def nearest_frames(t_us: np.ndarray, n_frames: int, dt_us: int) -> np.ndarray:
     """Index into ``t_us`` (sorted int64 us) of the frame nearest the centre
-    ``(k + 1/2) dt_us`` of each window ``k < n_frames``; ties go to the earlier frame."""
+    ``(k + 1/2) dt_us`` of each window ``k < n_frames``; ties go to the earlier frame.
+
+    Examples
+    --------
+    >>> t = np.array([0, 10, 20, 30])  # four frames, 10 us apart
+    >>> nearest_frames(t, 5, 10).tolist()  # centres 5 (a tie: the earlier), 15, 25, 35, 45
+    [0, 1, 2, 3, 3]
+    """
     twice = 2 * np.asarray(t_us, dtype=np.int64)
     centre2 = (2 * np.arange(n_frames, dtype=np.int64) + 1) * int(dt_us)  # 2 x centre (exact)
     right = np.clip(np.searchsorted(twice, centre2), 1, len(twice) - 1)
@@ -51,6 +68,13 @@ def grey_frame_indices(config: BuildConfig) -> np.ndarray:
     of event window ``k`` (ties to the earlier frame). Windows past the end of the 0.5 s
     video get its last frame. With ``windows="paper"`` the Eq. 5 groups start at events
     and so vary per sample; the grey video keeps to the clock windows of ``dt_us``.
+
+    Examples
+    --------
+    >>> config = BuildConfig(categories=("chair",), per_category=1, oversample=1)
+    >>> index = grey_frame_indices(config)  # window centres 2500, 7500, 12500, ... us
+    >>> index.shape, index[:4].tolist(), index[-2:].tolist()  # frame 119 is at 495.8 ms
+    ((100,), [1, 2, 3, 4], [118, 119])
     """
     return nearest_frames(rendered_times_us(config), config.n_frames, config.dt_us)
 
@@ -61,6 +85,14 @@ def grey_frame_cameras(config: BuildConfig) -> np.ndarray:
     The orbit is fixed by the config alone (no per-sample randomness), so row ``k`` is
     ``e2vlib.render.orbit_cameras(n_rendered)[grey_frame_indices(config)[k]]``; the camera
     looks at the origin with +z up (see :func:`e2vlib.render.project_points`).
+
+    Examples
+    --------
+    >>> from e2vlib.render import orbit_cameras
+    >>> config = BuildConfig(categories=("chair",), per_category=1, oversample=1)
+    >>> cameras = grey_frame_cameras(config)
+    >>> cameras.shape, bool(np.allclose(cameras[0], orbit_cameras(120)[1]))
+    ((100, 3), True)
     """
     from e2vlib.render import orbit_cameras
 
@@ -72,7 +104,15 @@ def video_to_grey(video: np.ndarray, indices: np.ndarray, frame_size: int) -> np
     down to ``frame_size`` (which must divide R), as uint8 grey levels
     ``(len(indices), frame_size, frame_size)``: each pixel is the mean of an
     ``R/frame_size``-square block of the 8-bit levels ``round(255 v)``, rounded half up
-    (exact integer arithmetic)."""
+    (exact integer arithmetic).
+
+    Examples
+    --------
+    >>> video = np.zeros((1, 4, 4))
+    >>> video[0, :2, :2], video[0, 2:, 2:] = 1.0, 0.5  # white and mid-grey quarters
+    >>> video_to_grey(video, [0], 2).tolist()  # 8-bit levels 255 and round(127.5) = 128
+    [[[255, 0], [0, 128]]]
+    """
     _, height, width = video.shape
     if height != width or width % frame_size:
         raise ValueError(f"video frames {width}x{height} must be square and a multiple of "
@@ -87,7 +127,16 @@ def video_to_grey(video: np.ndarray, indices: np.ndarray, frame_size: int) -> np
 def save_grey_video(path: Path, grey: np.ndarray, frame_index: np.ndarray,
                     t_us: np.ndarray) -> None:
     """Write ROOT/grey/<id>.npz: ``grey`` uint8 (n_frames, S, S), ``frame_index`` int64
-    (n_frames,) into the rendered video, ``t_us`` int64 (n_frames,) their time stamps (us)."""
+    (n_frames,) into the rendered video, ``t_us`` int64 (n_frames,) their time stamps (us).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / GREY_DIR / "chair_0000.npz"
+    >>> save_grey_video(path, np.zeros((100, 8, 8), np.uint8), np.arange(100), np.arange(100) * 50)
+    >>> sorted(np.load(path).files)
+    ['frame_index', 'grey', 't_us']
+    """
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         np.savez_compressed(f, grey=np.asarray(grey, dtype=np.uint8),
@@ -102,6 +151,20 @@ def load_grey_video(root: str | os.PathLike, sample_id: str) -> np.ndarray:
     (:func:`grey_frame_indices`), seen from ``grey_frame_cameras(config)[k]``. Raises a
     ValueError naming the make-data command to run when ``root`` was built without
     ``--grey-video`` or the file is missing or damaged.
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> config = BuildConfig(categories=("chair",), per_category=1, resolution=16,
+    ...                      frame_size=8, oversample=1, grey_video=True)
+    >>> _ = (root / "config.json").write_text(json.dumps(config.to_dict()))
+    >>> index = grey_frame_indices(config)
+    >>> save_grey_video(root / GREY_DIR / "chair_0000.npz", np.full((100, 8, 8), 7, np.uint8),
+    ...                 index, rendered_times_us(config)[index])
+    >>> grey = load_grey_video(root, "chair_0000")
+    >>> grey.shape, grey.dtype, int(grey[0, 0, 0])
+    ((100, 8, 8), dtype('uint8'), 7)
     """
     root = Path(root)
     config_path = root / "config.json"

@@ -27,7 +27,19 @@ def npz_digest(path: str | os.PathLike) -> str:
     """SHA-256 (hex) of an ``.npz`` file's arrays: every member's name and ``.npy`` bytes,
     in name order. Unlike the file's own bytes it leaves out the write times that
     ``np.savez`` puts in the zip, so two builds of one sample give the same digest.
-    Raises ValueError naming the file when it is not a readable zip (CRCs are checked)."""
+    Raises ValueError naming the file when it is not a readable zip (CRCs are checked).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> for name in ("a.npz", "b.npz"):
+    ...     np.savez(folder / name, x=np.arange(3))
+    >>> npz_digest(folder / "a.npz") == npz_digest(folder / "b.npz")  # the same arrays
+    True
+    >>> len(npz_digest(folder / "a.npz"))  # 256 bits in hex
+    64
+    """
     h = hashlib.sha256()
     try:
         with zipfile.ZipFile(path) as zf:
@@ -44,7 +56,19 @@ def npz_digest(path: str | os.PathLike) -> str:
 
 
 def manifest_digests(root: Path) -> dict[str, str]:
-    """``{id: sha256}`` recorded in ROOT/manifest.csv (empty for old or unreadable ones)."""
+    """``{id: sha256}`` recorded in ROOT/manifest.csv (empty for old or unreadable ones).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> manifest_digests(root)  # no manifest yet
+    {}
+    >>> row = "chair_0000,chair,test,7,1200," + "ab" * 32
+    >>> _ = (root / "manifest.csv").write_text("id,category,split,seed,n_events,sha256\\n" + row)
+    >>> manifest_digests(root) == {"chair_0000": "ab" * 32}
+    True
+    """
     try:
         rows = read_manifest(root)
     except (OSError, ValueError, KeyError):
@@ -58,6 +82,21 @@ def write_manifest(root: Path, specs: Iterable[SampleSpec],
 
     ``sha256`` is :func:`npz_digest` of the sample file, taken from ``digests``, else from
     the manifest already there (the digest recorded when it was built), else computed.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from e2vlib.data.samples import save_sample
+    >>> root = Path(tempfile.mkdtemp())
+    >>> (root / "samples").mkdir()
+    >>> specs = [SampleSpec("chair_0000", "chair", 0, "test", 7),
+    ...          SampleSpec("chair_0001", "chair", 1, "train", 8)]
+    >>> save_sample(root / "samples" / "chair_0000.npz", np.zeros((100, 8, 8)),
+    ...             np.zeros((32, 32, 32)), n_events=1200)
+    >>> write_manifest(root, specs).name  # chair_0001 has no file yet: not listed
+    'manifest.csv'
+    >>> [(r["id"], r["split"], r["n_events"], len(r["sha256"])) for r in read_manifest(root)]
+    [('chair_0000', 'test', 1200, 64)]
     """
     root = Path(root)
     known = {**manifest_digests(root), **(digests or {})}
@@ -82,5 +121,15 @@ def read_manifest(root: str | os.PathLike) -> list[dict]:
     """Rows of ROOT/manifest.csv as dicts (``seed``, ``n_events`` as int; ``sha256`` as
     written, and absent from manifests older than it). Every row is checked
     (:func:`e2vlib.data.checks.read_manifest_rows`): a bad one is a :class:`DatasetError`
-    naming its line."""
+    naming its line.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> rows = "id,category,split,seed,n_events\\nlamp_3,lamp,val,5,9"
+    >>> _ = (root / "manifest.csv").write_text(rows)
+    >>> read_manifest(root)  # an older manifest, without sha256
+    [{'id': 'lamp_3', 'category': 'lamp', 'split': 'val', 'seed': 5, 'n_events': 9}]
+    """
     return read_manifest_rows(root)

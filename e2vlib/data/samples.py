@@ -30,6 +30,13 @@ class Sample:
     With ``config.grey_video``, ``grey`` is the grey video (n_frames, S, S) uint8 and
     ``grey_index`` (n_frames,) int64 the rendered frame each grey frame comes from
     (see :func:`grey_frame_indices`); otherwise both are None.
+
+    Examples
+    --------
+    >>> sample = Sample(frames=np.zeros((100, 8, 8), np.uint8), voxels=np.zeros((32,) * 3, bool),
+    ...                 events=np.zeros(0), sensor_size=(16, 16))
+    >>> sample.grey is None and sample.grey_index is None  # no --grey-video
+    True
     """
 
     frames: np.ndarray
@@ -48,6 +55,19 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     ``config.grey_video`` the same rendered video also gives ``sample.grey``
     (:func:`grey_frame_indices`, :func:`video_to_grey`); nothing is rendered twice.
     Introduced in notebooks/04_building_the_dataset.ipynb.
+
+    Examples
+    --------
+    A 16 px orbit (the lessons use 128 px), pooled to 8 px:
+
+    >>> from e2vlib.shapes import make_shape
+    >>> config = BuildConfig(categories=("chair",), per_category=1, resolution=16,
+    ...                      frame_size=8, oversample=1)
+    >>> sample = mesh_to_sample(make_shape("chair", 0), config, seed=0)
+    >>> sample.frames.shape, sample.frames.dtype, sample.voxels.shape, sample.sensor_size
+    ((100, 8, 8), dtype('uint8'), (32, 32, 32), (16, 16))
+    >>> bool(sample.frames.max() == 1 and len(sample.events) > 0 and sample.voxels.any())
+    True
     """
     from e2vlib.render import render_orbit
     from e2vlib.shapes import normalize_mesh
@@ -74,7 +94,20 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
 
 
 def save_sample(path: Path, frames: np.ndarray, voxels: np.ndarray, n_events: int) -> None:
-    """Write one sample as bit-packed, compressed arrays (temp file, then rename)."""
+    """Write one sample as bit-packed, compressed arrays (temp file, then rename).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "chair_0000.npz"
+    >>> frames = np.zeros((100, 8, 8), np.uint8)
+    >>> frames[3, 2, 5] = 1
+    >>> save_sample(path, frames, np.ones((32, 32, 32), bool), n_events=1)
+    >>> sorted(np.load(path).files)
+    ['frames', 'frames_shape', 'n_events', 'voxels', 'voxels_shape']
+    >>> int(np.load(path)["frames"].nbytes)  # 100 x 8 x 8 bits packed into bytes
+    800
+    """
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         np.savez_compressed(
             f,
@@ -131,6 +164,19 @@ def load_sample(path: str | os.PathLike, frames_shape: Sequence[int] | None = No
     and against ``frames_shape`` / ``voxels_shape`` when given (what config.json says);
     any mismatch or damage is a :class:`DatasetError` naming the file. A missing file
     raises FileNotFoundError.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "chair_0000.npz"
+    >>> save_sample(path, np.eye(8, dtype=np.uint8)[None].repeat(100, 0), np.ones((32,) * 3), 99)
+    >>> frames, voxels = load_sample(path, (100, 8, 8))
+    >>> frames.shape, frames.dtype, int(frames.sum()), voxels.dtype, int(voxels.sum())
+    ((100, 8, 8), dtype('uint8'), 800, dtype('bool'), 32768)
+    >>> load_sample(path, (100, 16, 16))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.data.checks.DatasetError: ...frames of shape (100, 8, 8), but ... (100, 16, 16)...; ...
     """
     path = Path(path)
     try:

@@ -32,13 +32,25 @@ from e2vlib.files import atomic_path
 
 
 class MergeError(ValueError):
-    """Shards that cannot be merged (other settings, differing or missing samples)."""
+    """Shards that cannot be merged (other settings, differing or missing samples).
+
+    Examples
+    --------
+    >>> issubclass(MergeError, ValueError)
+    True
+    """
 
 
 @dataclass
 class MergeReport:
     """What :func:`merge_datasets` did: ``n_samples`` planned and present in ``root``;
-    files ``linked`` (hard links), ``copied`` and ``kept`` (already in ``root``)."""
+    files ``linked`` (hard links), ``copied`` and ``kept`` (already in ``root``).
+
+    Examples
+    --------
+    >>> MergeReport(root=Path("whole"), manifest=Path("whole/manifest.csv"), n_samples=3).linked
+    0
+    """
 
     root: Path
     manifest: Path
@@ -159,6 +171,31 @@ def merge_datasets(dest: str | os.PathLike, sources: Sequence[str | os.PathLike]
     place (shards built into one shared folder) and rewrites its manifest. Raises
     :class:`MergeError` naming the folders and, for missing samples, the make-data
     command of each shard that would build them.
+
+    Examples
+    --------
+    Two shard folders of three empty samples written by hand (``make-data --shard i/2`` would
+    render them), joined; one shard alone is refused:
+
+    >>> import tempfile
+    >>> from e2vlib.data import read_manifest, save_sample
+    >>> work = Path(tempfile.mkdtemp())
+    >>> config = BuildConfig(categories=("chair",), per_category=3, resolution=16,
+    ...                      frame_size=8, oversample=1, raw_events_per_category=0)
+    >>> frames, label = np.zeros((100, 8, 8)), np.zeros((32, 32, 32))
+    >>> for i in (0, 1):  # shard i of 2 holds samples i, i + 2, ...
+    ...     shard = work / f"shard{i}"
+    ...     (shard / "samples").mkdir(parents=True)
+    ...     _ = (shard / "config.json").write_text(json.dumps(config.to_dict()))
+    ...     for spec in plan_samples(config)[i::2]:
+    ...         save_sample(shard / "samples" / f"{spec.id}.npz", frames, label, n_events=0)
+    >>> report = merge_datasets(work / "whole", [work / "shard0", work / "shard1"])
+    >>> report.n_samples, report.linked + report.copied, len(read_manifest(work / "whole"))
+    (3, 3, 3)
+    >>> merge_datasets(work / "half", [work / "shard0"])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.data.shards.MergeError: 1 of 3 planned samples missing: ...
     """
     dest = Path(dest)
     roots, seen = [], set()
