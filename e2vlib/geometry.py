@@ -26,7 +26,7 @@ objects each of car 0.74 / 0.54, chair 0.60 / 0.24, table 0.60 / 0.36, airplane 
 rays without silhouettes reach at most 0.21 on the box. The hull never carved a voxel of
 the box or sphere; on the objects it loses thin-part voxels (see :func:`visual_hull`).
 
-Frames and conventions are those of :mod:`e2vlib.render` (camera looking at the origin, +z
+Frames and conventions are those of :mod:`e2vlib.orbit` (camera looking at the origin, +z
 up, ``project_points``: pixel ``(column, row)`` centres at integers, row 0 at the top) and
 :mod:`e2vlib.voxels` (grid ``[i, j, k] = (x, y, z)`` over ``[-0.5, 0.5]^3``, voxel ``i``
 centred at ``-0.5 + (i + 0.5) / grid``), so the results compare directly with the dataset's
@@ -44,7 +44,7 @@ from scipy import ndimage
 
 from e2vlib import paper
 from e2vlib.metrics import fscores, iou
-from e2vlib.render import orbit_cameras, project_points
+from e2vlib.orbit import orbit_camera_at, project_points  # orbit_camera_at re-exported
 
 SILHOUETTE_TOLERANCE = 0.5 / 255
 """A pixel belongs to the silhouette when it differs from the background by more than this
@@ -90,6 +90,14 @@ def sample_points(grid: int = paper.GRID_SIDE, samples: int = 1) -> np.ndarray:
     Each voxel holds ``samples**3`` points at the centres of its sub-cells (``samples=1``:
     the voxel centre), listed voxel by voxel in the grid's ``[i, j, k]`` order, so
     ``values.reshape(grid, grid, grid, samples**3)`` regroups a per-point result.
+
+    Examples
+    --------
+    >>> points = sample_points(2)  # the centres of a 2 x 2 x 2 grid
+    >>> points.shape, points[0].tolist(), points[-1].tolist()
+    ((8, 3), [-0.25, -0.25, -0.25], [0.25, 0.25, 0.25])
+    >>> sample_points(2, samples=2).shape  # 8 points in each of the 8 voxels
+    (64, 3)
     """
     g = _check_int("grid", grid, 1)
     s = _check_int("samples", samples, 1)
@@ -135,6 +143,13 @@ def silhouettes_from_video(video: ArrayLike, background: float = 1.0,
     :func:`e2vlib.render.render_orbit` makes it; its background is white (1.0) and the lit
     grey object never reaches white, so ``|I - background| > tolerance`` is the object
     (with its anti-aliased edge).
+
+    Examples
+    --------
+    >>> video = np.ones((1, 2, 3))  # one white frame
+    >>> video[0, 0, 1] = 0.5  # one grey pixel
+    >>> silhouettes_from_video(video).astype(int).tolist()
+    [[[0, 1, 0], [0, 0, 0]]]
     """
     v = np.asarray(video)
     if v.ndim != 3:
@@ -158,7 +173,7 @@ def visual_hull(silhouettes: ArrayLike, cameras: ArrayLike, resolution: int | No
     """Occupancy ``(grid, grid, grid)`` float32 in [0, 1] carved from silhouettes.
 
     ``silhouettes``: ``(n_views, res, res)`` binary, seen from ``cameras`` ``(n_views, 3)``
-    (m; e.g. :func:`e2vlib.render.orbit_cameras`); ``resolution`` (px) is checked against
+    (m; e.g. :func:`e2vlib.orbit.orbit_cameras`); ``resolution`` (px) is checked against
     them when given. Each voxel holds ``samples**3`` points (:func:`sample_points`); a point
     survives when it projects (nearest pixel) inside the silhouette in at least
     ``min_fraction`` of the views (1: every view, the classical hull; lower values tolerate
@@ -171,6 +186,18 @@ def visual_hull(silhouettes: ArrayLike, cameras: ArrayLike, resolution: int | No
     their centres can fall outside the silhouettes and get carved. ``samples=2`` or more
     with ``value > 0`` keeps such voxels too (a conservative hull), at the price of about
     half a voxel of extra shell on thick parts.
+
+    Examples
+    --------
+    The first camera of the orbit (on the -y side, +x to the right in its image) sees a
+    silhouette filling the left half of its image: the hull keeps the voxels with x < 0.
+
+    >>> from e2vlib.orbit import orbit_cameras
+    >>> masks = np.zeros((1, 16, 16), bool)
+    >>> masks[0, :, :8] = True
+    >>> hull = visual_hull(masks, orbit_cameras()[:1], grid=4)
+    >>> hull.shape, hull.dtype, float(hull[:2].min()), float(hull[2:].max())
+    ((4, 4, 4), dtype('float32'), 1.0, 0.0)
     """
     masks = _check_masks("silhouettes", silhouettes, resolution)
     cams = _check_cameras(cameras, masks.shape[0])
@@ -181,30 +208,6 @@ def visual_hull(silhouettes: ArrayLike, cameras: ArrayLike, resolution: int | No
     points = sample_points(g, s)
     kept = _hits(masks, cams, points, max_misses=len(cams) - need) >= need
     return kept.reshape(g, g, g, s**3).mean(axis=3).astype(np.float32)
-
-
-def orbit_camera_at(t_us: ArrayLike, n_video_frames: int = paper.N_VIDEO_FRAMES,
-                    fps: float = paper.VIDEO_FPS) -> np.ndarray:
-    """Camera positions ``(m, 3)`` (m) of the render orbit at times ``t_us`` (microseconds).
-
-    :func:`e2vlib.render.render_orbit` puts video frame ``i`` at ``i * 1e6 / fps`` us and
-    orbit parameter ``i / (n_video_frames - 1)`` (with any ``oversample``), so time ``t``
-    sits at ``s = t * fps / (1e6 * (n_video_frames - 1))``, clipped to [0, 1]. Positions are
-    interpolated linearly in a table of the orbit 64 times denser than the video (off the
-    true spiral by under a micrometre; exact at the video frames).
-    """
-    n = _check_int("n_video_frames", n_video_frames, 2)
-    if not (isinstance(fps, int | float | np.integer | np.floating) and math.isfinite(fps)
-            and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps!r}")
-    t = np.asarray(t_us, dtype=np.float64).reshape(-1)
-    if not np.all(np.isfinite(t)):
-        raise ValueError("t_us holds NaN/inf times")
-    s = np.clip(t * float(fps) / (1e6 * (n - 1)), 0.0, 1.0)
-    dense = 64 * (n - 1)
-    table = orbit_cameras(dense + 1)
-    grid_s = np.arange(dense + 1) / dense
-    return np.stack([np.interp(s, grid_s, table[:, axis]) for axis in range(3)], axis=1)
 
 
 MERGE_FRAMES = 5
@@ -232,6 +235,13 @@ def silhouettes_from_events(frames: ArrayLike, merge_frames: int = MERGE_FRAMES)
     (between a table's legs) and on the small side where an outline made no events; the
     vote over many frames (:func:`frames_ray_density`) averages both out. A frame without
     events gives an empty silhouette.
+
+    Examples
+    --------
+    >>> frames = np.zeros((1, 4, 4), bool)
+    >>> frames[0, 1, [0, 2]] = True  # the left and right outline of one row
+    >>> silhouettes_from_events(frames, merge_frames=1)[0].astype(int).tolist()
+    [[0, 0, 0, 0], [1, 1, 1, 0], [0, 0, 0, 0], [0, 0, 0, 0]]
     """
     masks = _check_masks("frames", frames, None)
     k = _check_int("merge_frames", merge_frames, 1)
@@ -256,6 +266,15 @@ def frames_ray_density(frames: ArrayLike, cameras: ArrayLike, grid: int = paper.
     the raw event pixels are used (EMVS-style counting of the event rays through each
     voxel, high only near edges the events saw). Frames left empty carry no information
     and do not count.
+
+    Examples
+    --------
+    >>> from e2vlib.orbit import orbit_cameras
+    >>> frames = np.zeros((2, 16, 16), bool)
+    >>> frames[0, :, :8] = True  # events over the left half; frame 1 has none
+    >>> density = frames_ray_density(frames, orbit_cameras()[:2], grid=4, fill_frames=False)
+    >>> float(density[:2].min()), float(density[2:].max())  # only frame 0 counts
+    (1.0, 0.0)
     """
     masks = _check_masks("frames", frames, None)
     cams = _check_cameras(cameras, masks.shape[0])
@@ -287,6 +306,18 @@ def event_ray_density(
     ``cameras_at_time(t0 + (k + 0.5) dt)`` (a function of an int64 array of microseconds
     returning ``(m, 3)`` positions, e.g. :func:`orbit_camera_at`). Then as
     :func:`frames_ray_density`; turn the result into a solid with :func:`fill_solid`.
+
+    Examples
+    --------
+    Events over the left half of a 16 px sensor at 2.5 ms, the first 5 ms window's
+    middle, seen from the orbit camera of that time: the voxels with x < 0.
+
+    >>> from e2vlib.events import make_events
+    >>> y, x = np.mgrid[0:16, 0:8]
+    >>> events = make_events(x.ravel(), y.ravel(), np.full(x.size, 2500), np.ones(x.size))
+    >>> density = event_ray_density(events, orbit_camera_at, 16, grid=4)
+    >>> density.shape, float(density[:2].min()), float(density[2:].max())
+    ((4, 4, 4), 1.0, 0.0)
     """
     from e2vlib.frames import accumulate
 
@@ -309,6 +340,15 @@ def fill_solid(density: ArrayLike, threshold: float = EVENT_VOTE_THRESHOLD) -> n
     ``density``: a ``(R, R, R)`` grid (e.g. :func:`event_ray_density`). After thresholding,
     a closing with the 3 x 3 x 3 cube bridges one-voxel gaps in a shell (it never grows
     the outside of a convex part) and enclosed cavities are filled, since labels are solid.
+
+    Examples
+    --------
+    >>> density = np.zeros((5, 5, 5))
+    >>> density[1:4, 1:4, 1:4] = 1.0
+    >>> density[2, 2, 2] = 0.0  # a hollow 3 x 3 x 3 shell
+    >>> solid = fill_solid(density)
+    >>> solid.dtype, int(solid.sum())  # its hole filled
+    (dtype('bool'), 27)
     """
     d = np.asarray(density, dtype=np.float64)
     if d.ndim != 3 or len(set(d.shape)) != 1:
@@ -333,6 +373,14 @@ def score_occupancy(occupancy: ArrayLike, label: ArrayLike,
     :data:`e2vlib.paper.IOU_THRESHOLDS` and :func:`e2vlib.metrics.fscores` at
     :data:`e2vlib.paper.IOU_THRESHOLD` with ``n_points`` surface samples (the keys and
     defaults of ``e2vlib.train.score_predictions``).
+
+    Examples
+    --------
+    >>> label = np.zeros((32, 32, 32))
+    >>> label[8:24, 8:24, 8:24] = 1
+    >>> scores = score_occupancy(label, label)  # a perfect reconstruction
+    >>> list(scores), set(scores.values())
+    (['iou@0.2', 'iou@0.3', 'iou@0.4', 'iou@0.5', 'fscore@1%', 'fscore@20%'], {1.0})
     """
     occ = np.asarray(occupancy, dtype=np.float64)
     gt = np.asarray(label, dtype=np.float64)
@@ -342,3 +390,10 @@ def score_occupancy(occupancy: ArrayLike, label: ArrayLike,
                 n_points=n_points)
     scores["fscore@1%"], scores["fscore@20%"] = float(f[0]), float(f[1])
     return scores
+
+
+__all__ = [
+    "EVENT_VOTE_THRESHOLD", "MERGE_FRAMES", "SILHOUETTE_TOLERANCE", "event_ray_density",
+    "fill_solid", "frames_ray_density", "orbit_camera_at", "sample_points", "score_occupancy",
+    "silhouettes_from_events", "silhouettes_from_video", "visual_hull",
+]

@@ -1,22 +1,15 @@
 """Render the paper's spiral camera orbit around an object into a grayscale video.
 
 E2V (Chen et al., ICVR 2023) rendered each ShapeNet object in Blender while the camera
-flew a spiral around it: from 2 m above to 2 m below the object, 4 m from the vertical axis
-at the ends and 6 m at mid height, always looking at the object, with an 80 mm lens on a
-36 mm sensor, a white background and a sun plus lights above and below. This module rebuilds
-that set-up with pyvista/VTK rendering off screen.
-
-Conventions used here (all lengths in metres, angles in degrees, times in microseconds):
-
-* orbit parameter ``s`` runs from 0 (first frame) to 1 (last frame);
-* height ``z(s) = 2 - 4 s`` (linear, +2 m to -2 m);
-* horizontal radius ``r(z) = 6 - z**2 / 2``: a parabola in ``z`` that is 4 m at ``z = +-2``
-  and 6 m at ``z = 0``, smooth everywhere;
-* azimuth ``phi(s) = -90 + 360 s``: one full counter-clockwise turn seen from above,
-  starting on the -y side of the object (the "front" view of Blender, looking along +y, so
-  +x is to the right in the first frame); the start is fixed so labels and views line up;
-* the camera looks at the origin with +z as its up direction, so a +z-pointing object is
-  upright in the image.
+flew a spiral around it, always looking at the object, with an 80 mm lens on a 36 mm
+sensor, a white background and a sun plus lights above and below. This module rebuilds
+that set-up with pyvista/VTK rendering off screen (:func:`render_orbit`); it holds only the
+VTK work. The orbit itself, its clock and the camera model (numpy only) live in
+:mod:`e2vlib.orbit`, whose conventions hold here (metres, degrees, microseconds; the
+camera looks at the origin with +z up). Re-exported from there, so lessons keep importing
+them from here: :func:`orbit_cameras`, :func:`orbit_angles`, :func:`project_points`,
+:func:`pixel_motion_per_frame`, :func:`required_oversample`, :data:`VIEW_ANGLE_DEG` and the
+orbit's numbers (:data:`FOCAL_LENGTH_MM`, :data:`SENSOR_SIZE_MM`, :data:`Z_TOP_M`, ...).
 
 Introduced in notebooks/03_simulating_events.ipynb.
 """
@@ -27,30 +20,36 @@ import atexit
 import collections
 import ctypes.util
 import functools
-import math
 import os
 import sys
 import threading
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from e2vlib import paper
+from e2vlib.orbit import (  # re-exported: the orbit's numbers and functions
+    AZIMUTH_START_DEG,
+    FOCAL_LENGTH_MM,
+    RADIUS_END_M,
+    RADIUS_MID_M,
+    SENSOR_SIZE_MM,
+    VIEW_ANGLE_DEG,
+    Z_BOTTOM_M,
+    Z_TOP_M,
+    _check_clock,
+    _check_count,
+    _video_frames,
+    n_rendered,
+    orbit_angles,
+    orbit_cameras,
+    pixel_motion_per_frame,
+    project_points,
+    rendered_cameras,
+    rendered_times_us,
+    required_oversample,
+)
 
-FOCAL_LENGTH_MM = paper.FOCAL_LENGTH_MM
-"""Focal length of the paper's virtual camera (mm)."""
-SENSOR_SIZE_MM = paper.SENSOR_WIDTH_MM
-"""Sensor width (and height: our images are square) of the virtual camera (mm); our choice,
-the paper gives only the focal length (see :data:`e2vlib.paper.SENSOR_WIDTH_MM`)."""
-VIEW_ANGLE_DEG = math.degrees(2.0 * math.atan(0.5 * SENSOR_SIZE_MM / FOCAL_LENGTH_MM))
-"""Full view angle of an 80 mm lens on a 36 mm sensor, about 25.36 degrees."""
-AZIMUTH_START_DEG = -90.0
-"""Azimuth of the first camera position (on the -y side, looking along +y)."""
-Z_TOP_M, Z_BOTTOM_M = paper.ORBIT_Z_TOP_M, paper.ORBIT_Z_BOTTOM_M
-"""Camera heights at the first and last frame (m)."""
-RADIUS_END_M, RADIUS_MID_M = paper.ORBIT_SIZE_END_M, paper.ORBIT_SIZE_MID_M
-"""Horizontal camera radius at the ends and at mid height (m); the paper's 4 m and 6 m read
-as radii (our reading, :data:`e2vlib.paper.ORBIT_READING`)."""
+_n_rendered = n_rendered  # the old private name
 
 _CLIPPING_RANGE = (0.1, 50.0)  # near/far planes (m); objects fit in the unit cube
 _BACKGROUND = (1.0, 1.0, 1.0)
@@ -58,163 +57,15 @@ _MATERIAL = {"color": (0.8, 0.8, 0.8), "ambient": 0.15, "diffuse": 0.85, "specul
 _LUMA = np.array([0.299, 0.587, 0.114])  # ITU-R BT.601 weights, RGB -> gray
 
 
-def _check_count(name: str, value: int, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def _video_frames(n_video_frames: int, n_frames: int | None) -> int:
-    """Resolve the old keyword ``n_frames`` (video frames) to ``n_video_frames``."""
-    if n_frames is not None:
-        if n_video_frames != paper.N_VIDEO_FRAMES and n_video_frames != n_frames:
-            raise TypeError("give n_video_frames or its old name n_frames, not both")
-        n_video_frames = n_frames
-    return _check_count("n_video_frames (formerly n_frames)", n_video_frames, 2)
-
-
-def _spiral(s: np.ndarray) -> np.ndarray:
-    """Camera positions (m, shape (len(s), 3)) at orbit parameters ``s`` in [0, 1]."""
-    z = Z_TOP_M + (Z_BOTTOM_M - Z_TOP_M) * s
-    half = 0.5 * (Z_TOP_M - Z_BOTTOM_M)
-    r = RADIUS_MID_M - (RADIUS_MID_M - RADIUS_END_M) * (z / half) ** 2
-    phi = np.radians(AZIMUTH_START_DEG + 360.0 * s)
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-
-
-def _orbit_s(n: int) -> np.ndarray:
-    """Orbit parameters ``i / (n - 1)``; exact division, so a k-times denser sampling
-    hits the same ``s`` values bit for bit at every k-th frame."""
-    return np.arange(n, dtype=np.float64) / (n - 1)
-
-
-def orbit_cameras(n_video_frames: int = paper.N_VIDEO_FRAMES, *,
-                  n_frames: int | None = None) -> np.ndarray:
-    """Camera positions of the paper's spiral orbit, shape ``(n_video_frames, 3)``, in metres.
-
-    Frame ``i`` sits at orbit parameter ``s = i / (n_video_frames - 1)``: height ``2 - 4 s``,
-    horizontal radius ``6 - z**2 / 2`` (4 m at the ends, 6 m at ``z = 0``) and azimuth
-    ``-90 + 360 s`` degrees (one counter-clockwise turn starting on the -y side). Every
-    camera looks at the origin with +z up.
-
-    Introduced in notebooks/03_simulating_events.ipynb.
-    """
-    n = _video_frames(n_video_frames, n_frames)
-    return _spiral(_orbit_s(n))
-
-
-def orbit_angles(n_video_frames: int = paper.N_VIDEO_FRAMES, *, n_frames: int | None = None,
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-frame ``(azimuth_deg, elevation_deg, distance_m)`` of :func:`orbit_cameras`.
-
-    Azimuth is measured counter-clockwise from +x (it runs from -90 to 270 degrees),
-    elevation is the camera's angle above the horizontal plane through the object
-    (positive while the camera is above it), distance is from the camera to the origin.
-    Each array has shape ``(n_video_frames,)``.
-
-    Introduced in notebooks/03_simulating_events.ipynb.
-    """
-    n = _video_frames(n_video_frames, n_frames)
-    s = _orbit_s(n)
-    pos = _spiral(s)
-    horizontal = np.hypot(pos[:, 0], pos[:, 1])
-    azimuth = AZIMUTH_START_DEG + 360.0 * s
-    elevation = np.degrees(np.arctan2(pos[:, 2], horizontal))
-    return azimuth, elevation, np.linalg.norm(pos, axis=1)
-
-
-def _n_rendered(n_frames: int, oversample: int) -> int:
-    """Frames rendered for ``oversample``: the same time span, ``oversample`` x denser."""
-    return oversample * (n_frames - 1) + 1
-
-
-def project_points(points: ArrayLike, camera_position: ArrayLike, resolution: int) -> np.ndarray:
-    """Pixel coordinates ``(m, 2)`` as ``(column, row)`` of 3-D ``points`` (m, shape (m, 3)).
-
-    Pinhole model of the render camera: at ``camera_position`` looking at the origin with +z
-    up, view angle :data:`VIEW_ANGLE_DEG`, square image of ``resolution`` pixels. Row 0 is
-    the top of the image and pixel ``(c, r)`` has its centre at ``(c, r)``, so the image
-    centre is at ``((res - 1) / 2, (res - 1) / 2)``. Points must be in front of the camera.
-
-    Introduced in notebooks/03_simulating_events.ipynb.
-    """
-    res = _check_count("resolution", resolution, 1)
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    cam = np.asarray(camera_position, dtype=np.float64).reshape(3)
-    forward = -cam / np.linalg.norm(cam)
-    right = np.cross(forward, (0.0, 0.0, 1.0))
-    norm = np.linalg.norm(right)
-    if norm < 1e-9:
-        raise ValueError("camera_position must not lie on the z axis (up direction is +z)")
-    right /= norm
-    up = np.cross(right, forward)
-    rel = pts - cam
-    depth = rel @ forward
-    if np.any(depth <= 0):
-        raise ValueError("some points lie behind the camera; they have no projection")
-    focal_px = 0.5 * res / math.tan(math.radians(0.5 * VIEW_ANGLE_DEG))
-    centre = 0.5 * (res - 1)
-    col = centre + focal_px * (rel @ right) / depth
-    row = centre - focal_px * (rel @ up) / depth
-    return np.stack([col, row], axis=1)
-
-
-def pixel_motion_per_frame(
-    n_video_frames: int = paper.N_VIDEO_FRAMES,
-    resolution: int = 256,
-    oversample: int = 1,
-    points: ArrayLike | None = None,
-    *,
-    n_frames: int | None = None,
-) -> np.ndarray:
-    """Largest image motion (pixels) of the object between consecutive rendered frames.
-
-    Projects ``points`` (default: a 9 x 9 x 9 grid filling the unit cube
-    ``[-0.5, 0.5]^3``, where normalized objects live) with every camera of the orbit as
-    :func:`render_orbit` samples it (``oversample * (n_video_frames - 1) + 1`` frames) and returns
-    the maximum displacement over the points for each consecutive pair, shape
-    ``(n_rendered - 1,)``. The frame rate does not enter: motion per frame depends only on
-    how densely the path is sampled. The paper's 120 frames at 256 px move parts of the
-    object by about 3 px per frame; an event simulator that interpolates linearly between
-    frames wants at most about 1 px, hence ``oversample``.
-
-    Introduced in notebooks/03_simulating_events.ipynb.
-    """
-    n = _video_frames(n_video_frames, n_frames)
-    k = _check_count("oversample", oversample, 1)
-    res = _check_count("resolution", resolution, 1)
-    if points is None:
-        g = np.linspace(-0.5, 0.5, 9)
-        points = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    cams = _spiral(_orbit_s(_n_rendered(n, k)))
-    uv = np.stack([project_points(pts, c, res) for c in cams])  # (frames, points, 2)
-    return np.linalg.norm(np.diff(uv, axis=0), axis=2).max(axis=1)
-
-
-def required_oversample(
-    n_video_frames: int = paper.N_VIDEO_FRAMES, resolution: int = 256,
-    max_motion_px: float = 1.0, *, n_frames: int | None = None,
-) -> int:
-    """Smallest ``oversample`` for which :func:`pixel_motion_per_frame` stays within
-    ``max_motion_px`` pixels on every frame pair (searched up to 64).
-
-    Introduced in notebooks/03_simulating_events.ipynb.
-    """
-    if not (math.isfinite(max_motion_px) and max_motion_px > 0):
-        raise ValueError(f"max_motion_px must be a positive number, got {max_motion_px!r}")
-    n_frames = _video_frames(n_video_frames, n_frames)
-    worst = float(pixel_motion_per_frame(n_frames, resolution, 1).max())
-    k = max(1, math.ceil(worst / max_motion_px))  # motion shrinks about as 1/k
-    while k <= 64:
-        if pixel_motion_per_frame(n_frames, resolution, k).max() <= max_motion_px:
-            return k
-        k += 1
-    raise ValueError(f"no oversample up to 64 keeps motion within {max_motion_px} px")
-
-
 def to_polydata(mesh):
     """A pyvista.PolyData view of a trimesh.Trimesh or pyvista.PolyData (never modified).
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> poly = to_polydata(trimesh.creation.box((0.5, 0.5, 0.5)))
+    >>> type(poly).__name__, poly.n_points, poly.n_cells  # 8 corners, 12 triangles
+    ('PolyData', 8, 12)
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
@@ -370,6 +221,12 @@ def release_plotters() -> int:
     """Close the off-screen plotters :func:`render_orbit` keeps for reuse; return how many.
 
     They are made again on demand; call this to free their OpenGL memory. Runs at exit.
+
+    Examples
+    --------
+    >>> _ = release_plotters()
+    >>> release_plotters()  # none left to close
+    0
     """
     with _SCENES_LOCK:
         scenes = list(_SCENES.values())
@@ -533,25 +390,32 @@ def render_orbit(
     gather on fewer pixels (``BuildConfig(anti_aliasing=...)`` builds datasets either way;
     bench/RESULTS.md, "Dataset building", compares the events).
 
+    Examples
+    --------
+    Two video frames of a 0.5 m box at 16 px, then at twice the rate along the same path:
+
+    >>> import trimesh
+    >>> box = trimesh.creation.box((0.5, 0.5, 0.5))
+    >>> video, t_us = render_orbit(box, n_video_frames=2, resolution=16)
+    >>> video.shape, video.dtype, t_us.tolist()
+    ((2, 16, 16), dtype('float32'), [0, 4167])
+    >>> float(video[0, 0, 0]), bool(video[0, 8, 8] < 1)  # white corner, grey box in the middle
+    (1.0, True)
+    >>> dense, t_dense = render_orbit(box, n_video_frames=2, resolution=16, oversample=2)
+    >>> t_dense.tolist(), bool((dense[::2] == video).all())
+    ([0, 2083, 4167], True)
+
     Introduced in notebooks/03_simulating_events.ipynb.
     """
     n = _video_frames(n_video_frames, n_frames)
     res = _check_count("resolution", resolution, 1)
     k = _check_count("oversample", oversample, 1)
-    if not (isinstance(fps, (int, float, np.integer, np.floating)) and math.isfinite(fps)
-            and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps!r}")
-    if k * float(fps) > 1e6:
-        raise ValueError(
-            f"fps x oversample = {k * float(fps):g} frames/s puts several frames in one "
-            f"microsecond, so their whole-microsecond time stamps would coincide; use "
-            f"fps <= {1e6 / k:g}")
+    fps, k = _check_clock(fps, k)
     aa = _anti_aliasing(anti_aliasing)
     poly = to_polydata(mesh)
     _check_in_view(poly.bounds)
-    n_out = _n_rendered(n, k)
-    cameras = _spiral(_orbit_s(n_out))
-    t_us = np.round(np.arange(n_out) * 1e6 / (k * float(fps))).astype(np.int64)
+    cameras = rendered_cameras(n, k)
+    t_us = rendered_times_us(n, fps, k)
 
     video = _render_frames(poly, cameras, res, aa, reuse_plotter)
     if float(video.max() - video.min()) < 1.0 / 255.0:
@@ -559,3 +423,12 @@ def render_orbit(
             "the rendered video is blank (every pixel the same grey): the object is not in "
             "view; normalize the mesh with e2vlib.shapes.normalize_mesh first")
     return video, t_us
+
+
+__all__ = [
+    "ANTI_ALIASING", "AZIMUTH_START_DEG", "FOCAL_LENGTH_MM", "MAX_CACHED_PLOTTERS",
+    "MAX_OBJECT_SIZE_M", "MIN_OBJECT_SIZE_M", "RADIUS_END_M", "RADIUS_MID_M", "SENSOR_SIZE_MM",
+    "SUPERSAMPLE_FACTOR", "VIEW_ANGLE_DEG", "Z_BOTTOM_M", "Z_TOP_M", "headless_opengl_window",
+    "orbit_angles", "orbit_cameras", "pixel_motion_per_frame", "project_points",
+    "release_plotters", "render_orbit", "required_oversample", "to_polydata",
+]
