@@ -18,15 +18,13 @@ from __future__ import annotations
 
 import atexit
 import collections
-import ctypes.util
-import functools
 import os
-import sys
 import threading
 
 import numpy as np
 
 from e2vlib import paper
+from e2vlib._headless import headless_opengl_window  # re-exported
 from e2vlib.orbit import (  # re-exported: the orbit's numbers and functions
     AZIMUTH_START_DEG,
     FOCAL_LENGTH_MM,
@@ -286,40 +284,6 @@ def _render_frames(poly, cameras: np.ndarray, resolution: int, anti_aliasing: st
     finally:
         scene.close()
     return video
-
-
-_OPENGL_WINDOW = "VTK_DEFAULT_OPENGL_WINDOW"
-
-
-@functools.cache
-def _headless_window_class() -> str | None:
-    """VTK's window class for the headless OpenGL library installed here (EGL first)."""
-    if ctypes.util.find_library("EGL"):
-        return "vtkEGLRenderWindow"
-    if ctypes.util.find_library("OSMesa"):
-        return "vtkOSOpenGLRenderWindow"
-    return None
-
-
-def headless_opengl_window() -> str | None:
-    """Choose VTK's headless OpenGL window on a Linux machine without a display.
-
-    VTK (9.4 and later) first tries an X window on Linux and, when there is no X server,
-    prints ``bad X server connection. DISPLAY=`` before it falls back to EGL or OSMesa.
-    Where ``DISPLAY`` is unset this sets the environment variable
-    ``VTK_DEFAULT_OPENGL_WINDOW`` to ``vtkEGLRenderWindow`` (or ``vtkOSOpenGLRenderWindow``
-    where only OSMesa is installed) so VTK goes there directly. A value the user set is
-    never changed; with a display, or with neither library, nothing is set. Returns the
-    value in force (None when VTK chooses itself). :func:`render_orbit` and
-    ``e2vlib.viz.new_plotter`` call it before every plotter they make (lessons never need
-    to); call it yourself before a ``pyvista.Plotter`` made by hand.
-    """
-    if (_OPENGL_WINDOW not in os.environ and sys.platform.startswith("linux")
-            and not os.environ.get("DISPLAY")):
-        window = _headless_window_class()
-        if window is not None:
-            os.environ[_OPENGL_WINDOW] = window
-    return os.environ.get(_OPENGL_WINDOW)
 
 
 MAX_OBJECT_SIZE_M, MIN_OBJECT_SIZE_M = 2.0, 0.01

@@ -23,8 +23,6 @@ notebooks/08_visualizing_in_3d.ipynb.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -33,11 +31,10 @@ from matplotlib import animation
 from matplotlib.colors import LinearSegmentedColormap
 
 from e2vlib import paper
+from e2vlib._headless import headless_opengl_window, offline_wasm_bundle  # re-exported
 from e2vlib.events import check_sensor_size, validate
 from e2vlib.frames import accumulate
-from e2vlib.render import headless_opengl_window  # re-exported: lessons call viz.*
 
-_WASM_OVERRIDE = "VTK_WASM_DIR_OVERRIDE"
 ON_COLOR, OFF_COLOR = "#e69f00", "#0072b2"  # Okabe-Ito orange and blue
 POLARITY_CMAP = LinearSegmentedColormap.from_list("e2v_polarity", [OFF_COLOR, "#ffffff", ON_COLOR])
 """Signed ON - OFF counts: OFF blue (dark in grey), zero white, ON orange (mid grey)."""
@@ -315,34 +312,6 @@ TRUTH_COLOR, MESH_COLOR = "#8fa8c8", "#d2b48c"
 UNIT_CUBE_BOUNDS = (-0.5, 0.5, -0.5, 0.5, -0.5, 0.5)
 """``(xmin, xmax, ymin, ymax, zmin, zmax)`` in metres of the cube the voxel grids cover."""
 
-
-
-def offline_wasm_bundle() -> str | None:
-    """Keep pyvista's trame view from downloading VTK's WebAssembly bundle at run time.
-
-    pyvista's trame backend loads ``trame-vtklocal`` when it is installed (``pyvista[jupyter]``
-    pulls it in), and that module fetches VTK's WebAssembly build from gitlab.kitware.com the
-    first time a view starts: offline, the cell shows a long traceback. Where the bundle is
-    not on disk and ``VTK_WASM_DIR_OVERRIDE`` is unset, this points that variable at an empty
-    folder, so nothing is fetched and the view renders as usual (on the server, or with
-    vtk.js in the browser). Returns the value in force (None without trame-vtklocal).
-    :func:`new_plotter` calls it; introduced in notebooks/08_visualizing_in_3d.ipynb.
-    """
-    if _WASM_OVERRIDE in os.environ:
-        return os.environ[_WASM_OVERRIDE]
-    try:
-        from trame_vtklocal.module import wasm_serve_path
-        from trame_vtklocal.module.wasm import has_required_files
-        from vtkmodules.vtkCommonCore import vtkVersion
-    except ImportError:
-        return None
-    version = vtkVersion().GetVTKVersion()
-    if has_required_files(Path(wasm_serve_path) / "wasm32" / version, version):
-        return None  # downloaded before (or bundled): let trame use it
-    empty = Path(tempfile.gettempdir()) / "e2v-no-vtk-wasm"
-    empty.mkdir(exist_ok=True)
-    os.environ[_WASM_OVERRIDE] = str(empty)
-    return str(empty)
 
 
 def new_plotter(off_screen: bool | None = None, window_size=(500, 500), shape=(1, 1)):
@@ -965,7 +934,6 @@ def export_reconstruction(probabilities: np.ndarray, out_dir,
     existing export is never left half-written. Returns ``{format: Path}``.
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
     """
-    from pathlib import Path
 
     import pyvista as pv
 
