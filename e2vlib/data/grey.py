@@ -13,11 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from e2vlib import paper
+from e2vlib import orbit, paper
 from e2vlib.data.checks import check_id, inside, read_config
 from e2vlib.data.commands import make_data_command
 from e2vlib.data.config import BuildConfig, frame_settings
 from e2vlib.files import atomic_path
+from e2vlib.orbit import nearest_frames  # noqa: F401  (its home is orbit; data re-exports it)
 
 GREY_DIR = "grey"
 """Folder of a dataset holding the grey videos (``make-data --grey-video``)."""
@@ -38,26 +39,7 @@ def rendered_times_us(config: BuildConfig) -> np.ndarray:
     >>> len(rendered_times_us(BuildConfig(categories=("chair",), per_category=1, oversample=3)))
     358
     """
-    k = int(config.oversample)
-    n = k * (paper.N_VIDEO_FRAMES - 1) + 1
-    return np.round(np.arange(n) * 1e6 / (k * float(paper.VIDEO_FPS))).astype(np.int64)
-
-
-def nearest_frames(t_us: np.ndarray, n_frames: int, dt_us: int) -> np.ndarray:
-    """Index into ``t_us`` (sorted int64 us) of the frame nearest the centre
-    ``(k + 1/2) dt_us`` of each window ``k < n_frames``; ties go to the earlier frame.
-
-    Examples
-    --------
-    >>> t = np.array([0, 10, 20, 30])  # four frames, 10 us apart
-    >>> nearest_frames(t, 5, 10).tolist()  # centres 5 (a tie: the earlier), 15, 25, 35, 45
-    [0, 1, 2, 3, 3]
-    """
-    twice = 2 * np.asarray(t_us, dtype=np.int64)
-    centre2 = (2 * np.arange(n_frames, dtype=np.int64) + 1) * int(dt_us)  # 2 x centre (exact)
-    right = np.clip(np.searchsorted(twice, centre2), 1, len(twice) - 1)
-    left = right - 1
-    return np.where(centre2 - twice[left] <= twice[right] - centre2, left, right)
+    return orbit.rendered_times_us(paper.N_VIDEO_FRAMES, paper.VIDEO_FPS, int(config.oversample))
 
 
 def grey_frame_indices(config: BuildConfig) -> np.ndarray:
@@ -76,7 +58,8 @@ def grey_frame_indices(config: BuildConfig) -> np.ndarray:
     >>> index.shape, index[:4].tolist(), index[-2:].tolist()  # frame 119 is at 495.8 ms
     ((100,), [1, 2, 3, 4], [118, 119])
     """
-    return nearest_frames(rendered_times_us(config), config.n_frames, config.dt_us)
+    return orbit.window_frame_indices(config.n_frames, config.dt_us, paper.N_VIDEO_FRAMES,
+                                      paper.VIDEO_FPS, int(config.oversample))
 
 
 def grey_frame_cameras(config: BuildConfig) -> np.ndarray:
@@ -94,9 +77,8 @@ def grey_frame_cameras(config: BuildConfig) -> np.ndarray:
     >>> cameras.shape, bool(np.allclose(cameras[0], orbit_cameras(120)[1]))
     ((100, 3), True)
     """
-    from e2vlib.render import orbit_cameras
-
-    return orbit_cameras(len(rendered_times_us(config)))[grey_frame_indices(config)]
+    return orbit.window_cameras(config.n_frames, config.dt_us, paper.N_VIDEO_FRAMES,
+                                paper.VIDEO_FPS, int(config.oversample))
 
 
 def video_to_grey(video: np.ndarray, indices: np.ndarray, frame_size: int) -> np.ndarray:
