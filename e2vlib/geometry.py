@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from e2vlib import paper
-from e2vlib.metrics import fscores, iou
+from e2vlib.metrics import score_predictions
 from e2vlib.orbit import orbit_camera_at, project_points  # orbit_camera_at re-exported
 
 SILHOUETTE_TOLERANCE = 0.5 / 255
@@ -369,10 +369,8 @@ def score_occupancy(occupancy: ArrayLike, label: ArrayLike,
 
     ``occupancy``: ``(32, 32, 32)`` values in [0, 1] (a bool grid works too); ``label``:
     the 0/1 voxel label. Returns ``{"iou@0.2": ..., "iou@0.5": ..., "fscore@1%": ...,
-    "fscore@20%": ...}`` from :func:`e2vlib.metrics.iou` at each of
-    :data:`e2vlib.paper.IOU_THRESHOLDS` and :func:`e2vlib.metrics.fscores` at
-    :data:`e2vlib.paper.IOU_THRESHOLD` with ``n_points`` surface samples (the keys and
-    defaults of ``e2vlib.train.score_predictions``).
+    "fscore@20%": ...}``: :func:`e2vlib.metrics.score_predictions` of the one grid, with
+    ``n_points`` surface samples.
 
     Examples
     --------
@@ -382,14 +380,10 @@ def score_occupancy(occupancy: ArrayLike, label: ArrayLike,
     >>> list(scores), set(scores.values())
     (['iou@0.2', 'iou@0.3', 'iou@0.4', 'iou@0.5', 'fscore@1%', 'fscore@20%'], {1.0})
     """
-    occ = np.asarray(occupancy, dtype=np.float64)
-    gt = np.asarray(label, dtype=np.float64)
-    scores = {f"iou@{t}": float(iou(occ, gt, threshold=t)) for t in paper.IOU_THRESHOLDS}
-    f = fscores(occ, gt, threshold=paper.IOU_THRESHOLD,
-                distances=(paper.FSCORE_DISTANCE, paper.FSCORE_DISTANCE_REPORTED),
-                n_points=n_points)
-    scores["fscore@1%"], scores["fscore@20%"] = float(f[0]), float(f[1])
-    return scores
+    occ = np.asarray(occupancy, dtype=np.float64)[None]
+    gt = np.asarray(label, dtype=np.float64)[None]
+    return {key: float(values[0]) for key, values in
+            score_predictions(occ, gt, fscore_points=n_points).items()}
 
 
 __all__ = [
