@@ -15,6 +15,13 @@ def animate_frames(frames: np.ndarray, interval_ms: int = 50, dt_us: int | None 
     """A matplotlib animation of frames ``(n, H, W)``; show it with :func:`animation_html`.
 
     No ffmpeg needed. Introduced in notebooks/02_event_frames.ipynb.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")  # off screen
+    >>> anim = animate_frames(np.zeros((3, 4, 4)), dt_us=5000)
+    >>> type(anim).__name__, 'alt="three frames"' in animation_html(anim, "three frames")
+    ('FuncAnimation', True)
     """
     frames = np.asarray(frames)
     if frames.ndim != 3 or len(frames) == 0:
@@ -41,11 +48,12 @@ def animation_html(anim: animation.Animation, description: str) -> str:
     frame slider's label, and without its link to an icon font on a CDN (JupyterLab and the
     book ship the icons), so that the page loads nothing from outside.
 
-    Examples:
-        >>> anim = animate_frames(np.zeros((2, 4, 4)))
-        >>> html = animation_html(anim, "two empty frames")
-        >>> 'alt="two empty frames"' in html, "bootstrapcdn" in html
-        (True, False)
+    Examples
+    --------
+    >>> anim = animate_frames(np.zeros((2, 4, 4)))
+    >>> html = animation_html(anim, "two empty frames")
+    >>> 'alt="two empty frames"' in html, "bootstrapcdn" in html
+    (True, False)
     """
     import html as html_text
     import re

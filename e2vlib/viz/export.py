@@ -93,6 +93,19 @@ def export_reconstruction(probabilities: np.ndarray, out_dir,
     Every file goes to a temporary file in ``out_dir`` first and is then renamed, so an
     existing export is never left half-written. Returns ``{format: Path}``.
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> grid = np.zeros((4, 4, 4), np.float32)
+    >>> grid[1:3, 1:3, 1:3] = 0.9
+    >>> paths = export_reconstruction(grid, tempfile.mkdtemp(), name="block",
+    ...                               formats=("vti", "binvox", "obj"))
+    >>> {fmt: path.name for fmt, path in paths.items()}
+    {'vti': 'block.vti', 'binvox': 'block.binvox', 'obj': 'block.obj'}
+    >>> from e2vlib.voxels import read_binvox
+    >>> int(read_binvox(paths["binvox"]).sum())  # the 8 voxels >= 0.3
+    8
     """
 
     import pyvista as pv

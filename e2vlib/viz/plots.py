@@ -39,6 +39,17 @@ def plot_events_3d(
     ON events orange, OFF blue; at most ``max_events`` points are drawn (a random subset).
     ``y`` is flipped so the picture is upright like the camera image. Returns the axes.
     Introduced in notebooks/01_events.ipynb.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")  # off screen
+    >>> from e2vlib.events import make_events
+    >>> events = make_events([0, 2, 3, 1], [0, 1, 2, 1], [0, 2000, 5000, 15000], [1, -1, 1, 1])
+    >>> ax = plot_events_3d(events, (4, 3))
+    >>> ax.get_xlabel(), ax.get_ylabel(), ax.get_zlabel()
+    ('x [px]', 't [ms]', 'y [px] (up)')
+    >>> [text.get_text() for text in ax.get_legend().get_texts()]
+    ['ON (+1)', 'OFF (-1)']
     """
     width, height = check_sensor_size(sensor_size)
     validate(events, (width, height))
@@ -63,6 +74,15 @@ def plot_event_rate(events: np.ndarray, bin_us: int = 10_000, ax=None):
     """Events per second over time, ON and OFF separately, in bins of ``bin_us``.
 
     Returns the axes. Introduced in notebooks/01_events.ipynb.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")  # off screen
+    >>> from e2vlib.events import make_events
+    >>> events = make_events([0, 2, 3, 1], [0, 1, 2, 1], [0, 2000, 5000, 15000], [1, -1, 1, 1])
+    >>> ax = plot_event_rate(events, bin_us=10_000)  # two bins of 10 ms
+    >>> [stairs.get_data().values.tolist() for stairs in ax.patches]  # ON, then OFF (events/s)
+    [[200.0, 100.0], [100.0, 0.0]]
     """
     if ax is None:
         ax = plt.figure(figsize=(8, 3)).add_subplot()
@@ -93,6 +113,13 @@ def plot_frame_grid(
 
     With ``dt_us`` each panel is titled with its window start in ms. Returns the figure.
     Introduced in notebooks/02_event_frames.ipynb.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")  # off screen
+    >>> fig = plot_frame_grid(np.zeros((3, 4, 4)), n_cols=2, dt_us=5000)
+    >>> [ax.get_title() for ax in fig.axes]  # a 2 x 2 grid, the last panel blank
+    ['0 ms', '5 ms', '10 ms', '']
     """
     frames = np.asarray(frames)
     if frames.ndim != 3:
@@ -128,6 +155,15 @@ def show_frame(
     The plain function behind the dt / frame-index slider of lesson 02 (the widget only
     calls it). ``index`` past the last frame shows the last frame.
     Introduced in notebooks/02_event_frames.ipynb.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")  # off screen
+    >>> from e2vlib.events import make_events
+    >>> events = make_events([0, 2, 3, 1], [0, 1, 2, 1], [0, 2000, 5000, 15000], [1, -1, 1, 1])
+    >>> frame, ax = show_frame(events, (4, 3), dt_ms=10, index=0)
+    >>> frame.shape, int(frame.sum()), ax.get_title()  # 3 of the 4 events in the first 10 ms
+    ((3, 4), 3, 'dt = 10 ms, frame 0 of 2: 3 pixels fired')
     """
     dt_us = max(1, round(dt_ms * 1000))
     frames = accumulate(events, sensor_size, dt_us=dt_us, mode="binary")
@@ -152,6 +188,15 @@ def plot_voxels(grid: np.ndarray, ax=None, threshold: float = 0.5, color="#8fa8c
     With ``colormap`` (e.g. ``"viridis"``) each voxel is coloured by its value (a
     probability); otherwise all take ``color``. Returns the 3D axes.
     Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")  # off screen
+    >>> grid = np.zeros((4, 4, 4))
+    >>> grid[1:3, 1:3, 1:3] = 1
+    >>> ax = plot_voxels(grid, title="a 2 x 2 x 2 block")
+    >>> ax.name, ax.get_xlim(), ax.get_title()
+    ('3d', (np.float64(0.0), np.float64(4.0)), 'a 2 x 2 x 2 block')
     """
     grid = np.asarray(grid, dtype=np.float32)
     if grid.ndim != 3:
@@ -184,6 +229,15 @@ def plot_reconstruction(probabilities: np.ndarray, voxels: np.ndarray | None = N
     The prediction is coloured by probability; the title reports IoU at ``threshold``
     when the ground truth is known. Returns the figure.
     Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")  # off screen
+    >>> truth = np.zeros((4, 4, 4))
+    >>> truth[1:3, 1:3, 1:3] = 1
+    >>> fig = plot_reconstruction(0.9 * truth, truth)  # probabilities 0.9 where the truth is
+    >>> [ax.get_title() for ax in fig.axes]
+    ['ground truth', 'prediction (p >= 0.3), IoU 1.00']
     """
     from e2vlib.metrics import iou
 

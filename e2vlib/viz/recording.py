@@ -30,6 +30,16 @@ def event_cloud(events: np.ndarray, sensor_size: tuple[int, int], max_events: in
     (-1/+1) and ``"t_ms"``; ``field_data["t_scale"]`` holds the scale used. At most
     ``max_events`` events, a random subset kept in time order.
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
+
+    Examples
+    --------
+    >>> from e2vlib.events import make_events
+    >>> events = make_events([0, 2, 3, 1], [0, 1, 2, 1], [0, 2000, 5000, 15000], [1, -1, 1, 1])
+    >>> cloud = event_cloud(events, (4, 3))  # 15 ms drawn 2 x 4 px long: 8/15 px per ms
+    >>> np.round(cloud.points, 3).tolist()  # (x, t_ms * 8/15, 2 - y)
+    [[0.0, 0.0, 2.0], [2.0, 1.067, 1.0], [3.0, 2.667, 0.0], [1.0, 8.0, 1.0]]
+    >>> cloud.point_data["polarity"].tolist()
+    [1, -1, 1, 1]
     """
     import pyvista as pv
 
@@ -60,6 +70,16 @@ def view_events(events: np.ndarray, sensor_size: tuple[int, int], max_events: in
     The pyvista twin of :func:`plot_events_3d` (rotate it with the mouse in JupyterLab).
     The axes show pixels and milliseconds. Returns the plotter (not shown).
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
+
+    Examples
+    --------
+    >>> from e2vlib.events import make_events
+    >>> events = make_events([0, 2, 3, 1], [0, 1, 2, 1], [0, 2000, 5000, 15000], [1, -1, 1, 1])
+    >>> plotter = view_events(events, (4, 3), off_screen=True, window_size=(64, 64))
+    >>> from e2vlib.viz.scenes import screenshot
+    >>> screenshot(plotter).shape
+    (64, 64, 3)
+    >>> plotter.close()
     """
     width, height = check_sensor_size(sensor_size)
     cloud = event_cloud(events, (width, height), max_events=max_events)
@@ -97,6 +117,14 @@ def camera_frustum(position, depth: float = 2.0, view_angle_deg: float | None = 
     coordinates, so a rendered frame can be pasted on it (top-left corner of the image
     at the top-left of the base). ``view_angle_deg`` defaults to the render camera's
     (:data:`e2vlib.orbit.VIEW_ANGLE_DEG`). Introduced in notebooks/03_simulating_events.ipynb.
+
+    Examples
+    --------
+    >>> lines, base = camera_frustum((0, -4, 0), depth=2)  # looking along +y
+    >>> lines.n_lines, base.n_cells  # 4 edges and the rim; one square
+    (5, 1)
+    >>> np.round(base.points, 3).tolist()  # half side 2 * tan(view angle / 2) = 2 * 18 / 80
+    [[-0.45, -2.0, 0.45], [0.45, -2.0, 0.45], [0.45, -2.0, -0.45], [-0.45, -2.0, -0.45]]
     """
     import pyvista as pv
 
@@ -133,6 +161,17 @@ def view_orbit(mesh, n_video_frames: int = paper.N_VIDEO_FRAMES, fps: float = pa
     object is drawn to scale at the origin. ``n_frames`` is the old name of
     ``n_video_frames`` (still accepted, same meaning; not the model's event frames).
     Returns the plotter (not shown). Introduced in notebooks/03_simulating_events.ipynb.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box((0.5, 0.5, 0.5))
+    >>> plotter = view_orbit(box, n_video_frames=5, every=2, off_screen=True,
+    ...                      window_size=(64, 64))  # frusta at frames 0, 2 and 4
+    >>> from e2vlib.viz.scenes import screenshot
+    >>> screenshot(plotter).shape
+    (64, 64, 3)
+    >>> plotter.close()
     """
     import pyvista as pv
 

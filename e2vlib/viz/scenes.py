@@ -36,6 +36,13 @@ def new_plotter(off_screen: bool | None = None, window_size=(500, 500), shape=(1
     without a display the headless OpenGL window is chosen first
     (:func:`headless_opengl_window`). Every ``view_*`` function starts from this plotter.
     Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> plotter = new_plotter(off_screen=True, window_size=(64, 48))
+    >>> plotter.window_size, plotter.shape, plotter.background_color.name
+    ([64, 48], (1, 1), 'white')
+    >>> plotter.close()
     """
     import pyvista as pv
 
@@ -54,6 +61,15 @@ def aim_at_object(plotter, direction=OBJECT_VIEW, zoom: float = 1.0) -> None:
     front-right and above, the objects facing -y); the camera is then moved so the unit
     cube :data:`UNIT_CUBE_BOUNDS` fills the view, and ``zoom > 1`` moves closer.
     Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> plotter = new_plotter(off_screen=True)
+    >>> aim_at_object(plotter, (0, -1, 0))  # from the front (-y)
+    >>> position, focus, up = plotter.camera_position
+    >>> position[0] == position[2] == 0 and position[1] < 0, focus, up
+    (True, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    >>> plotter.close()
     """
     direction = np.asarray(direction, dtype=np.float64).reshape(3)
     if not np.all(np.isfinite(direction)) or not np.any(direction):
@@ -77,6 +93,14 @@ def screenshot(plotter, path=None, scale: int | None = None) -> np.ndarray:
     Works for plotters created with ``off_screen=None`` that have not been shown yet:
     they are switched to off-screen rendering first. The plotter stays open, so it can
     still be shown or saved again. Introduced in notebooks/08_visualizing_in_3d.ipynb.
+
+    Examples
+    --------
+    >>> plotter = new_plotter(off_screen=True, window_size=(64, 48))
+    >>> image = screenshot(plotter)  # an empty scene: all white
+    >>> image.shape, image.dtype, image[0, 0].tolist()
+    ((48, 64, 3), dtype('uint8'), [255, 255, 255])
+    >>> plotter.close()
     """
     if getattr(plotter, "render_window", None) is None:
         raise ValueError("this plotter is closed; build the scene again before a screenshot")
@@ -116,6 +140,14 @@ def voxel_mesh(grid: np.ndarray, threshold: float = 0.5):
     Returns a ``pyvista.UnstructuredGrid`` placed in the unit cube ``[-0.5, 0.5]^3`` (the
     frame of the meshes), with the voxel values in ``cell_data["value"]``. Empty
     selections return an empty grid. Introduced in notebooks/04_building_the_dataset.ipynb.
+
+    Examples
+    --------
+    >>> grid = np.zeros((4, 4, 4))
+    >>> grid[1:3, 1:3, 1:3] = 1.0  # a 2 x 2 x 2 block: 8 voxels
+    >>> cubes = voxel_mesh(grid)
+    >>> cubes.n_cells, [float(b) for b in cubes.bounds]  # 0.25 m voxels in the unit cube
+    (8, [-0.25, 0.25, -0.25, 0.25, -0.25, 0.25])
     """
     import pyvista as pv
 
@@ -141,6 +173,15 @@ def add_voxels(plotter, grid: np.ndarray, threshold: float = 0.5, color=TRUTH_CO
     the floor of the cube; an empty selection says so in the corner. The camera is left
     alone: follow with :func:`aim_at_object`.
     Introduced in notebooks/07_evaluation.ipynb.
+
+    Examples
+    --------
+    >>> grid = np.zeros((4, 4, 4))
+    >>> grid[1:3, 1:3, 1:3] = 1.0  # a 2 x 2 x 2 block: 8 voxels
+    >>> plotter = new_plotter(off_screen=True)
+    >>> add_voxels(plotter, grid), add_voxels(plotter, grid, threshold=1.5)  # none >= 1.5
+    (8, 0)
+    >>> plotter.close()
     """
     cubes = voxel_mesh(grid, threshold)
     if floor:
@@ -174,6 +215,16 @@ def view_voxels(grid: np.ndarray, threshold: float = 0.5, color=TRUTH_COLOR,
     probabilities (values other than 0/1) by value with viridis, and a 0/1 label in one
     ``color``; pass a colormap name or ``None`` to choose. Returns the plotter (not shown).
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
+
+    Examples
+    --------
+    >>> grid = np.zeros((4, 4, 4))
+    >>> grid[1:3, 1:3, 1:3] = 1.0  # a 2 x 2 x 2 block: 8 voxels
+    >>> plotter = view_voxels(grid, off_screen=True, window_size=(64, 64))
+    >>> image = screenshot(plotter)
+    >>> image.shape, bool((image[32, 32] < 255).any())  # the block in the middle
+    ((64, 64, 3), True)
+    >>> plotter.close()
     """
     grid = np.asarray(grid, dtype=np.float32)
     if cmap == "auto":
@@ -209,6 +260,16 @@ def view_reconstructions(truths, predictions, threshold: float = paper.IOU_THRES
     views share one camera: turning one turns all. Returns the plotter with
     ``shape == (2, n)`` (not shown).
     Introduced in notebooks/08_visualizing_in_3d.ipynb.
+
+    Examples
+    --------
+    >>> grid = np.zeros((4, 4, 4))
+    >>> grid[1:3, 1:3, 1:3] = 1.0  # a 2 x 2 x 2 block: 8 voxels
+    >>> plotter = view_reconstructions([grid, grid], [0.9 * grid, 0.5 * grid],
+    ...                                off_screen=True, panel_size=64)
+    >>> plotter.shape  # truths above, predictions below, one column per object
+    (2, 2)
+    >>> plotter.close()
     """
     from e2vlib.metrics import iou
 
@@ -247,6 +308,17 @@ def view_mesh_voxels(mesh, voxels: np.ndarray, mesh_opacity: float = 0.55,
     ``(R, R, R)`` grid over ``[-0.5, 0.5]^3``. Shows how the 32^3 label approximates the
     surface: thin parts become one-voxel slabs, curved parts staircases. Returns the
     plotter (not shown). Introduced in notebooks/08_visualizing_in_3d.ipynb.
+
+    Examples
+    --------
+    >>> grid = np.zeros((4, 4, 4))
+    >>> grid[1:3, 1:3, 1:3] = 1.0  # a 2 x 2 x 2 block: 8 voxels
+    >>> import trimesh
+    >>> box = trimesh.creation.box((0.5, 0.5, 0.5))  # the block's own shape
+    >>> plotter = view_mesh_voxels(box, grid, off_screen=True, window_size=(64, 64))
+    >>> screenshot(plotter).shape
+    (64, 64, 3)
+    >>> plotter.close()
     """
     from e2vlib.render import to_polydata
 

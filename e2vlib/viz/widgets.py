@@ -167,6 +167,20 @@ def interactive_figure(function, /, *, rows=None, **controls):
     ``ipywidgets.VBox`` with one ``HBox`` per row and last an ``Output`` that shows the
     traceback of a redraw that failed; ``.values``, ``.text`` and ``.png`` (bytes) hold the
     state drawn last. Introduced in notebooks/02_event_frames.ipynb.
+
+    Examples
+    --------
+    >>> import ipywidgets
+    >>> def report(n):
+    ...     print(f"n = {n}")  # prints only; a drawing function's picture lands in .png
+    >>> box = interactive_figure(report, n=ipywidgets.IntSlider(value=2, max=5))
+    >>> box.values, box.text, box.png is None  # the default state, drawn at once
+    ({'n': 2}, 'n = 2', True)
+    >>> import contextlib, io
+    >>> with contextlib.redirect_stdout(io.StringIO()):  # outside a kernel it clears a line
+    ...     box.controls["n"].value = 3  # what moving the slider does
+    >>> box.text
+    'n = 3'
     """
     if not controls:
         raise ValueError("give at least one control, e.g. dt_ms=ipywidgets.FloatSlider()")
