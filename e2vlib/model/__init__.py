@@ -6,16 +6,25 @@ Input ``(batch, n_frames, H, W)`` float event frames (the frame axis is time), o
 ``(batch, C, n_frames, H, W)``. Encoders: the paper's 3D ResNet (preset ``"tiny"``), and a
 per-frame 2D ResNet with temporal max pooling (``"tiny2d"``) or a GRU over time
 (``"tiny_gru"``). Every public name is importable from here
-(``from e2vlib.model import E2V, build_e2v, load_checkpoint``); the code lives in three
+(``from e2vlib.model import E2V, build_e2v, load_checkpoint``); the code lives in six
 modules, each with one job:
 
 =========================  =================================================================
-``model.networks``         :class:`E2VConfig`, building blocks (:class:`BasicBlock`,
-                           :class:`Bottleneck`), encoders (:class:`ResNetEncoder`,
-                           :class:`Frames2dEncoder`, :class:`Frames2dGRUEncoder`),
-                           :class:`Bridge`, :class:`UNetDecoder`,
-                           :class:`E2V`, :data:`PRESETS`, :func:`build_e2v`,
-                           :func:`count_parameters`
+``model.config``           what a model is made of, as numbers: :class:`E2VConfig`, the
+                           named :data:`PRESETS` (``"paper"``, ``"tiny"``, ``"tiny2d"``,
+                           ``"tiny_gru"``) with the reasons for their choices, the choices
+                           a config takes (:data:`ENCODERS`, :data:`BRIDGES`,
+                           :data:`BOTTLENECKS`, :data:`NORMS`, :data:`RESNET_LAYERS`) and
+                           :data:`GRID_SIDE`; no torch
+``model.encoders``         frames -> features: residual blocks (:class:`BasicBlock`,
+                           :class:`Bottleneck`), :class:`ResNetEncoder` (3D, the paper's,
+                           or 2D), the per-frame :class:`Frames2dEncoder` (max over time)
+                           and :class:`Frames2dGRUEncoder` (a GRU over time)
+``model.decoder``          features -> voxel features: :class:`Bridge` (to the 32^3
+                           hidden volume), :class:`UNetDecoder` (Pix2Vox++-like)
+``model.networks``         the whole network: :class:`E2V`, :func:`build_e2v`,
+                           :func:`count_parameters`; re-exports the names of the three
+                           modules above (its home before they were split out)
 ``model.checkpoint``       checkpoint files: :func:`save_checkpoint`,
                            :func:`read_checkpoint` (digest and NaN checks),
                            :func:`load_checkpoint`, :func:`model_from_checkpoint`,
@@ -26,7 +35,9 @@ modules, each with one job:
                            :func:`format_summary`, :func:`activation_bytes`
 =========================  =================================================================
 
-``networks`` imports only ``e2vlib.paper``; ``checkpoint`` and ``summary`` import
+Imports run one way: ``config`` imports only ``e2vlib.paper``; ``encoders`` imports
+``config``; ``decoder`` imports ``config`` and ``encoders`` (their convolution and
+normalization helpers); ``networks`` those three; ``checkpoint`` and ``summary`` import
 ``networks`` (and ``e2vlib.files``); none imports this package's ``__init__``. The
 package attribute ``e2vlib.model.summary`` is the function :func:`summary`; import the
 module itself as ``from e2vlib.model.summary import ...`` or with
@@ -51,10 +62,9 @@ from e2vlib.model.checkpoint import (
     verify_weights,
     weights_digest,
 )
-from e2vlib.model.networks import (
+from e2vlib.model.config import (
     BOTTLENECKS,
     BRIDGES,
-    E2V,
     ENCODERS,
     GRID_SIDE,
     NORMS,
@@ -62,17 +72,17 @@ from e2vlib.model.networks import (
     PRESETS,
     RESNET_LAYERS,
     VOXEL_RESOLUTION,
+    E2VConfig,
+)
+from e2vlib.model.decoder import Bridge, UNetDecoder
+from e2vlib.model.encoders import (
     BasicBlock,
     Bottleneck,
-    Bridge,
-    E2VConfig,
     Frames2dEncoder,
     Frames2dGRUEncoder,
     ResNetEncoder,
-    UNetDecoder,
-    build_e2v,
-    count_parameters,
 )
+from e2vlib.model.networks import E2V, build_e2v, count_parameters
 from e2vlib.model.summary import (
     activation_bytes,
     format_summary,
