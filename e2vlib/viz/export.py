@@ -14,22 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from e2vlib import paper
+from e2vlib.metrics import grid_surface
 from e2vlib.viz.scenes import screenshot, view_voxels, voxel_mesh
-
-
-def _grid_surface(grid: np.ndarray, level: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
-    """Marching-cubes iso-surface ``grid == level`` of a ``(R, R, R)`` grid.
-
-    The grid is padded by one layer of zeros so the surface closes at the border; returns
-    ``(vertices, faces)``: vertices ``(n, 3)`` in metres in the unit cube's frame (voxel
-    ``i`` centred at ``-0.5 + (i + 0.5) / R``, the map of ``e2vlib.metrics.surface_points``,
-    written as it is there), faces ``(m, 3)`` indexing them.
-    """
-    from skimage.measure import marching_cubes
-
-    grid = np.asarray(grid, dtype=np.float32)
-    verts, faces, _, _ = marching_cubes(np.pad(grid, 1), level=float(level))
-    return (verts - 1 + 0.5) / grid.shape[0] - 0.5, faces  # padded index j -> metres
 
 
 def probability_mesh(probabilities: np.ndarray, threshold: float = paper.IOU_THRESHOLD):
@@ -61,7 +47,7 @@ def probability_mesh(probabilities: np.ndarray, threshold: float = paper.IOU_THR
         raise ValueError(f"threshold must lie strictly between 0 and 1, got {threshold!r}")
     if not np.any(grid >= threshold):
         raise ValueError(f"no voxel reaches the threshold {threshold:g}; lower it to get a mesh")
-    verts, faces = _grid_surface(grid, threshold)
+    verts, faces = grid_surface(grid, threshold)
     mesh = trimesh.Trimesh(np.clip(verts, -0.5, 0.5), faces, process=True)
     if mesh.volume < 0:  # make the normals point outwards whatever skimage's convention
         mesh.invert()
