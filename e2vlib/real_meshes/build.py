@@ -1,0 +1,119 @@
+"""Building the real-mesh test set: every kept model, by the data_small protocol.
+
+:func:`build_real_dataset` (``python -m e2vlib make-data --preset small --real-meshes
+data_small/real/catalogue.csv``, :data:`BUILD_COMMAND`) makes one test sample per kept row
+of the reviewed table with :func:`e2vlib.data.mesh_to_sample`, in a dataset folder that
+:class:`e2vlib.data.E2VDataset` reads; :mod:`e2vlib.real_study` scores models on it.
+
+Introduced in notebooks/13_putting_it_together.ipynb.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from e2vlib import paper
+from e2vlib.real_meshes.catalogue import CRRCSIM, FURNITURE_DIR, INSTALL_HINT, installed_libraries
+from e2vlib.real_meshes.mapping import MAPPING_CSV, read_mapping, resolve
+from e2vlib.real_meshes.meshes import load_entry_mesh
+
+BUILD_COMMAND = ("apt-get install -y sweethome3d-furniture crrcsim-data && "
+                 "python -m e2vlib make-data "
+                 "--preset small --real-meshes data_small/real/catalogue.csv "
+                 "--out cache/real_meshes")
+"""The recorded command that builds the real-mesh test set (install step first)."""
+
+
+def real_sample_seed(seed: int, sample_id: str) -> int:
+    """A stable 31-bit simulator seed for the real object ``sample_id``."""
+    import hashlib
+
+    digest = hashlib.sha256(f"{seed}/real/{sample_id}".encode()).digest()
+    return int.from_bytes(digest[:4], "little") & 0x7FFFFFFF
+
+
+def real_config(config, catalogue: str | os.PathLike = MAPPING_CSV,
+                folder: str | os.PathLike = FURNITURE_DIR) -> dict:
+    """config.json of a real-mesh dataset: the frame and render settings of ``config`` (a
+    :class:`e2vlib.data.BuildConfig`; ``per_category`` dropped, as the catalogue sets the
+    objects), the categories present, and where the meshes came from (the libraries'
+    folder and the catalogue, as given, with the catalogue's sha256)."""
+    import hashlib
+
+    catalogue = Path(catalogue)
+    d = config.to_dict()
+    d.pop("per_category")
+    rows = read_mapping(catalogue)
+    d["categories"] = [c for c in paper.CATEGORIES if any(m.category == c for m in rows)]
+    aircraft = any(m.library == CRRCSIM for m in rows)
+    d["source"] = {"packages": ["sweethome3d-furniture", *([CRRCSIM] if aircraft else [])],
+                   "install": INSTALL_HINT + (" crrcsim-data" if aircraft else ""),
+                   "folder": str(folder), "catalogue": str(catalogue),
+                   "catalogue_sha256": hashlib.sha256(catalogue.read_bytes()).hexdigest()}
+    return d
+
+
+def _build_real_one(args: tuple) -> str:
+    config, mapped, entry, root, folder = args
+    from e2vlib.data import mesh_to_sample, save_sample
+
+    mesh = load_entry_mesh(entry, folder, pose=mapped.pose)
+    sample = mesh_to_sample(mesh, config, seed=real_sample_seed(config.seed, mapped.id))
+    save_sample(Path(root) / "samples" / f"{mapped.id}.npz", sample.frames, sample.voxels,
+                len(sample.events))
+    return mapped.id
+
+
+def build_real_dataset(root: str | os.PathLike, config,
+                       catalogue: str | os.PathLike = MAPPING_CSV,
+                       folder: str | os.PathLike = FURNITURE_DIR, workers: int = 1,
+                       progress: bool = True) -> Path:
+    """Build (or finish) the real-mesh test set in ``root``; return its manifest path.
+
+    Every kept row of ``catalogue`` (:func:`read_mapping`) becomes one test sample, made
+    from its installed model (:func:`load_entry_mesh`) by :func:`e2vlib.data.mesh_to_sample`
+    with ``config``'s settings (the data_small protocol with ``--preset small``), so models
+    trained on data_small read it as they read its test split. The layout is a dataset's
+    (``config.json`` from :func:`real_config`, ``manifest.csv``, ``samples/<id>.npz``), so
+    :class:`e2vlib.data.E2VDataset` (split ``test``) and ``evaluate`` read it. Resumable:
+    samples on disk are skipped; every file is written to a temporary name and renamed.
+    Raises FileNotFoundError naming the install step when the package is absent.
+    """
+    import json
+
+    from e2vlib.data import SampleSpec, run_jobs, write_manifest
+    from e2vlib.dataset_checks import DatasetError
+    from e2vlib.files import atomic_path
+
+    root = Path(root)
+    installed_libraries(folder)  # names the install step when the package is absent
+    wanted = real_config(config, catalogue, folder)
+    config_path = root / "config.json"
+    if config_path.exists():
+        stored = json.loads(config_path.read_text())
+        settings = {k: v for k, v in stored.items() if k not in ("categories", "source")}
+        if "source" not in stored or settings != {
+                k: v for k, v in wanted.items() if k not in ("categories", "source")}:
+            raise DatasetError(f"{config_path} was built with other settings ({stored}); use "
+                               "another --out folder or delete it to rebuild")
+    elif root.exists() and any(p.name not in ("samples", "manifest.csv")
+                               for p in root.iterdir()):
+        raise DatasetError(f"{root} exists and is not a real-mesh dataset; choose another "
+                           "--out folder")
+    (root / "samples").mkdir(parents=True, exist_ok=True)
+    # a changed catalogue keeps the samples it still lists (each is made from its own model
+    # and id alone) and records the new catalogue
+    with atomic_path(config_path) as tmp:
+        tmp.write_text(json.dumps(wanted, indent=2) + "\n")
+    pairs = resolve(read_mapping(catalogue), folder)
+    specs, seen = [], {}
+    for mapped, _ in pairs:
+        index = seen[mapped.category] = seen.get(mapped.category, -1) + 1
+        specs.append(SampleSpec(id=mapped.id, category=mapped.category, index=index,
+                                split="test", seed=real_sample_seed(config.seed, mapped.id)))
+    jobs = [(config, m, e, str(root), str(folder)) for m, e in pairs
+            if not (root / "samples" / f"{m.id}.npz").exists()]
+    run_jobs(_build_real_one, jobs, workers, f"building {root.name}", "object", progress)
+    return write_manifest(root, specs)
+

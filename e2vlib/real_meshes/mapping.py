@@ -1,0 +1,151 @@
+"""The reviewed table that maps catalogue entries to the paper's 13 categories.
+
+``data_small/real/catalogue.csv`` (:data:`MAPPING_CSV`) has one row per candidate model
+(:data:`MAPPING_FIELDS`): our id, where the model comes from, its licence and the file
+stating it, our category, its pose, whether we keep it and what looking at it showed.
+:func:`read_mapping` reads and checks it (:func:`check_mapping`); :func:`resolve` pairs
+each row with its entry of the installed libraries.
+
+Introduced in notebooks/13_putting_it_together.ipynb.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+from e2vlib import paper
+from e2vlib.real_meshes.catalogue import (
+    CRRCSIM,
+    CRRCSIM_DIR,
+    CRRCSIM_INSTALL_HINT,
+    FURNITURE_DIR,
+    LIBRARY_LICENCES,
+    LICENCES,
+    CatalogueEntry,
+    RealMeshError,
+    crrcsim_entry,
+    read_catalogue,
+)
+from e2vlib.real_meshes.meshes import POSES
+
+MAPPING_CSV = Path(__file__).resolve().parents[2] / "data_small" / "real" / "catalogue.csv"
+"""The reviewed mapping from catalogue entries to the paper's categories."""
+MAPPING_FIELDS = ("id", "library", "entry_id", "name", "creator", "licence", "licence_file",
+                  "category", "pose", "keep", "note")
+"""Columns of the mapping table: our id, the ``.sh3f`` file, the entry's ``id#N``, its name
+and creator, its licence and the file inside the library that states it
+(:func:`entry_licence`), our category (one of the paper's 13), the pose (a key of
+:data:`POSES`), ``yes``/``no`` and what looking at the model showed."""
+
+
+@dataclass(frozen=True)
+class MappedEntry:
+    """One row of the mapping table (:data:`MAPPING_FIELDS`)."""
+
+    id: str
+    library: str
+    entry_id: str
+    name: str
+    creator: str
+    licence: str
+    licence_file: str
+    category: str
+    pose: str
+    keep: bool
+    note: str
+
+
+def check_mapping(rows: Iterable[dict], where: str = "catalogue.csv") -> list[MappedEntry]:
+    """Check mapping rows (dicts of :data:`MAPPING_FIELDS`) and return them as
+    :class:`MappedEntry`: ids unique plain names, categories the paper's, licences in
+    :data:`LICENCES` and matching their library, ``keep`` ``yes`` or ``no``. Raises
+    :class:`RealMeshError` listing every bad row (by line) and what to fix."""
+    problems, out, seen = [], [], set()
+    for line, row in enumerate(rows, start=2):
+        absent = [f for f in MAPPING_FIELDS if row.get(f) is None]
+        if absent:
+            problems.append(f"line {line}: missing columns {absent}")
+            continue
+        rid = row["id"]
+        if not re.fullmatch(r"[a-z]+_[a-z0-9_]+", rid):
+            problems.append(f"line {line}: id {rid!r} is not a plain lower-case name")
+        if rid in seen:
+            problems.append(f"line {line}: duplicate id {rid!r}")
+        seen.add(rid)
+        if row["category"] not in paper.CATEGORIES:
+            problems.append(f"line {line}: category {row['category']!r} is not one of the "
+                            f"paper's ({', '.join(paper.CATEGORIES)})")
+        elif not rid.startswith(row["category"] + "_"):
+            problems.append(f"line {line}: id {rid!r} must start with its category")
+        if row["licence"] not in LICENCES:
+            problems.append(f"line {line}: licence {row['licence']!r} is not one of "
+                            f"{', '.join(LICENCES)}")
+        if row["library"] not in LIBRARY_LICENCES:
+            problems.append(f"line {line}: unknown library {row['library']!r}")
+        if row["licence"] == "GPL-2.0" and row["library"] != CRRCSIM:
+            problems.append(f"line {line}: GPL-2.0 is allowed only for {CRRCSIM} rows")
+        if not row["licence_file"].strip():
+            problems.append(f"line {line}: licence_file is empty (name the file stating it)")
+        if row["pose"] not in POSES:
+            problems.append(f"line {line}: pose {row['pose']!r} is not one of "
+                            f"{', '.join(POSES)}")
+        if row["keep"] not in ("yes", "no"):
+            problems.append(f"line {line}: keep must be yes or no, got {row['keep']!r}")
+        if not row["note"].strip():
+            problems.append(f"line {line}: note is empty (say what looking at it showed)")
+        out.append(MappedEntry(**{f: row[f] for f in MAPPING_FIELDS if f != "keep"},
+                               keep=row["keep"] == "yes"))
+    if problems:
+        raise RealMeshError(f"{where}: {len(problems)} bad row(s): " + "; ".join(problems[:10])
+                            + ("; ..." if len(problems) > 10 else ""))
+    return out
+
+
+def read_mapping(path: str | os.PathLike = MAPPING_CSV, kept_only: bool = True
+                 ) -> list[MappedEntry]:
+    """The reviewed mapping table (:func:`check_mapping`); only the kept rows by default."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"mapping table {path} not found; the reviewed one is "
+                                "data_small/real/catalogue.csv")
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f)
+        if tuple(reader.fieldnames or ()) != MAPPING_FIELDS:
+            raise RealMeshError(f"{path}: columns must be {', '.join(MAPPING_FIELDS)}, got "
+                                f"{reader.fieldnames}")
+        rows = check_mapping(reader, str(path))
+    return [r for r in rows if r.keep or not kept_only]
+
+
+
+def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE_DIR,
+            crrcsim_folder: str | os.PathLike = CRRCSIM_DIR
+            ) -> list[tuple[MappedEntry, CatalogueEntry]]:
+    """Each mapping row with its catalogue entry from the installed libraries (``.sh3f``
+    files in ``folder``; crrcsim-data's AC3D files in ``crrcsim_folder``). Raises
+    :class:`RealMeshError` naming rows whose entry is not there (another package version)
+    and FileNotFoundError naming the install step of a package that is absent."""
+    mapped = list(mapped)
+    catalogues = {}
+    for lib in sorted({m.library for m in mapped}):
+        if lib == CRRCSIM:
+            if not Path(crrcsim_folder).is_dir():
+                raise FileNotFoundError(f"{crrcsim_folder} not found: crrcsim-data is not "
+                                        f"installed; {CRRCSIM_INSTALL_HINT}")
+            catalogues[lib] = {m.entry_id: crrcsim_entry(m.entry_id, crrcsim_folder)
+                               for m in mapped if m.library == lib
+                               and (Path(crrcsim_folder) / m.entry_id).is_file()}
+            continue
+        catalogues[lib] = {e.entry_id: e for e in read_catalogue(Path(folder) / lib)}
+    missing = [m.id for m in mapped if m.entry_id not in catalogues[m.library]]
+    if missing:
+        raise RealMeshError(f"{len(missing)} mapped entries are not in the installed "
+                            f"libraries ({', '.join(missing[:5])}); the package version "
+                            "differs from the one the table was reviewed on (1.8-1)")
+    return [(m, catalogues[m.library][m.entry_id]) for m in mapped]
+

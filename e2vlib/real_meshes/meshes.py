@@ -1,0 +1,134 @@
+"""One catalogue entry's model as a ``trimesh.Trimesh`` in the project's frame.
+
+:func:`load_entry_mesh` reads an entry's OBJ from its ``.sh3f`` zip (:func:`obj_to_mesh`)
+or a crrcsim-data aircraft's AC3D file (:func:`~e2vlib.real_meshes.ac3d.ac3d_to_mesh`),
+turns it as Sweet Home 3D shows it (:func:`entry_transform`, :data:`SH3D_TO_ZUP`: z up,
+front -y), applies the reviewed pose (:data:`POSES`) and normalizes it (bounding box
+centred, longest side 1).
+
+Introduced in notebooks/13_putting_it_together.ipynb.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from e2vlib.real_meshes.ac3d import ac3d_to_mesh
+from e2vlib.real_meshes.catalogue import (
+    CRRCSIM,
+    CRRCSIM_INSTALL_HINT,
+    FURNITURE_DIR,
+    INSTALL_HINT,
+    MAX_MODEL_BYTES,
+    CatalogueEntry,
+    RealMeshError,
+)
+
+SH3D_TO_ZUP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
+"""Sweet Home 3D models are y up with the front towards +z; this rotation (+90 degrees
+about x: ``(x, y, z) -> (x, -z, y)``) turns them into our frame (z up, front -y)."""
+
+POSES = {
+    "as_placed": np.eye(4),
+    "stood_up": np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]]),
+}
+"""Extra turn after :data:`SH3D_TO_ZUP`: ``as_placed`` keeps the pose Sweet Home 3D puts the
+object in a room; ``stood_up`` (+90 degrees about x) stands a phone that lies flat on its back
+upright with its screen to the front (-y), as ShapeNet's and our procedural telephones
+stand."""
+
+
+def _read_member(zf: zipfile.ZipFile, name: str, where: str) -> bytes:
+    try:
+        info = zf.getinfo(name)
+    except KeyError:
+        raise RealMeshError(f"{where}: {name} is missing from the library; reinstall it with "
+                            f"{INSTALL_HINT} --reinstall") from None
+    if info.file_size > MAX_MODEL_BYTES:
+        raise RealMeshError(f"{where}: {name} is {info.file_size} bytes, more than "
+                            f"real_meshes.MAX_MODEL_BYTES ({MAX_MODEL_BYTES})")
+    return zf.read(info)
+
+
+def obj_to_mesh(data: bytes, where: str = "OBJ") -> trimesh.Trimesh:
+    """Every face of OBJ text ``data`` as one ``trimesh.Trimesh``, as stored (no materials:
+    the renderer shades by geometry; parts and groups are merged, duplicate vertices welded).
+
+    Raises :class:`RealMeshError` for text with no triangles or NaN/inf vertices.
+    """
+    try:
+        loaded = trimesh.load(io.BytesIO(data), file_type="obj", force="mesh", process=False,
+                              skip_materials=True)
+    except Exception as err:  # the OBJ parser raises many types
+        raise RealMeshError(f"{where}: could not read the OBJ ({type(err).__name__}: "
+                            f"{err})") from err
+    if isinstance(loaded, trimesh.Scene):
+        loaded = loaded.to_geometry()
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise RealMeshError(f"{where}: the OBJ holds no triangles")
+    if not np.all(np.isfinite(loaded.vertices)):
+        raise RealMeshError(f"{where}: the OBJ has NaN or infinite vertex coordinates")
+    # merge the parts' duplicate vertices, so closed parts are watertight for voxelize
+    return trimesh.Trimesh(loaded.vertices, loaded.faces, process=True)
+
+
+def entry_transform(entry: CatalogueEntry, bounds: np.ndarray) -> np.ndarray:
+    """4x4 transform taking the stored OBJ of ``entry`` (bounding box ``bounds``, (2, 3))
+    to our frame as Sweet Home 3D shows it: ``modelRotation`` first, then each axis scaled
+    to the catalogue's width (x), height (y), depth (z), then :data:`SH3D_TO_ZUP`."""
+    rotation = np.eye(4)
+    if entry.rotation is not None:
+        rotation[:3, :3] = np.reshape(entry.rotation, (3, 3))
+    corners = np.array([[x, y, z] for x in bounds[:, 0] for y in bounds[:, 1]
+                        for z in bounds[:, 2]])
+    turned = trimesh.transform_points(corners, rotation)
+    extent = turned.max(0) - turned.min(0)
+    scale = np.eye(4)
+    if entry.size_cm is not None and np.all(extent > 0):
+        width, depth, height = entry.size_cm
+        target = np.array([width, height, depth])
+        if np.all(target > 0):
+            scale[:3, :3] = np.diag(target / extent)
+    return SH3D_TO_ZUP @ scale @ rotation
+
+
+def load_entry_mesh(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE_DIR,
+                    normalize: bool = True, pose: str = "as_placed") -> trimesh.Trimesh:
+    """The model of ``entry`` as one mesh in our frame (z up, front -y), by
+    :func:`entry_transform` and then the turn :data:`POSES` ``[pose]``; with ``normalize``
+    (the default) also
+    :func:`e2vlib.shapes.normalize_mesh` (bounding box centred, longest side 1, in m).
+
+    ``folder`` holds the ``.sh3f`` libraries (Debian's package by default); an entry of
+    :data:`CRRCSIM` is read from its AC3D file (:func:`ac3d_to_mesh`). Raises
+    FileNotFoundError naming the install step when the library is absent and
+    :class:`RealMeshError` when its model cannot be read.
+    """
+    from e2vlib.shapes import normalize_mesh
+
+    if pose not in POSES:
+        raise ValueError(f"pose must be one of {', '.join(POSES)}, got {pose!r}")
+    if entry.library == CRRCSIM:  # an AC3D file on disk (entry.model: its path)
+        path = Path(entry.model)
+        if not path.is_file():
+            raise FileNotFoundError(f"{path} not found: crrcsim-data is not installed; "
+                                    f"{CRRCSIM_INSTALL_HINT}")
+        mesh = ac3d_to_mesh(path.read_text(encoding="latin-1"), str(path))
+        mesh.apply_transform(POSES[pose] @ SH3D_TO_ZUP)  # AC3D is y up too, nose to +z
+        return normalize_mesh(mesh) if normalize else mesh
+    path = Path(folder) / entry.library
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} not found: sweethome3d-furniture is not installed; "
+                                f"{INSTALL_HINT}")
+    where = f"{entry.library} entry #{entry.number} ({entry.name})"
+    with zipfile.ZipFile(path) as zf:
+        mesh = obj_to_mesh(_read_member(zf, entry.model, where), where)
+    mesh.apply_transform(POSES[pose] @ entry_transform(entry, mesh.bounds))
+    return normalize_mesh(mesh) if normalize else mesh
+
