@@ -1,0 +1,166 @@
+"""Checks of command-line values before any work starts: argument types, devices, output
+paths, category lists, and frames that must match a checkpoint's.
+
+Each raises :class:`~e2vlib.cli.errors.UsageError` (exit status 2) naming the flag and the
+fix, except :func:`model_frames_check`, whose data is wrong rather than the command line
+(:class:`~e2vlib.cli.errors.CommandError` or ValueError, exit status 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+
+from e2vlib.cli.errors import CommandError, UsageError
+
+DEVICES = "auto, cpu, cuda, cuda:N (the N-th GPU), mps"
+"""What ``--device`` accepts, for messages."""
+
+PICTURE_TYPES = (".png", ".jpg", ".jpeg", ".pdf", ".svg")
+"""Endings ``reconstruct --png`` can write."""
+
+
+# --------------------------------------------------------------------------- argument types
+
+def whole_number(minimum: int):
+    """An argparse type: a whole number >= ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected a whole number >= {minimum}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(
+                f"must be a whole number >= {minimum}, got {value}")
+        return value
+
+    parse.__name__ = f"whole number >= {minimum}"
+    return parse
+
+
+def bounded(minimum: int, maximum: int):
+    """An argparse type: a whole number from ``minimum`` to ``maximum``."""
+    parse_low = whole_number(minimum)
+
+    def parse(text: str) -> int:
+        value = parse_low(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(
+                f"must be a whole number from {minimum} to {maximum}, got {value}")
+        return value
+
+    parse.__name__ = f"whole number {minimum}..{maximum}"
+    return parse
+
+
+def positive_number(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def check_device(text: str) -> None:
+    """Refuse a ``--device`` torch cannot use here, listing the valid ones."""
+    import torch
+
+    from e2vlib.train import resolve_device
+
+    if text != "auto":
+        try:
+            device = torch.device(text)
+        except (RuntimeError, ValueError, TypeError):
+            raise UsageError(f"--device {text!r} is not a device; use one of {DEVICES}") from None
+        if device.type not in ("cpu", "cuda", "mps"):
+            raise UsageError(f"--device {text!r} is not supported; use one of {DEVICES}")
+        if device.type == "mps" and not torch.backends.mps.is_available():
+            raise UsageError("--device mps: this machine has no Apple GPU (MPS); use --device "
+                             "cpu or auto")
+        if device.type == "cuda" and device.index is not None and torch.cuda.is_available():
+            count = torch.cuda.device_count()
+            if device.index >= count:
+                raise UsageError(f"--device {text}: this machine has {count} GPU(s), "
+                                 f"cuda:0 .. cuda:{count - 1}; pick one of those or auto")
+    try:
+        resolve_device(text)
+    except ValueError as err:
+        raise UsageError(f"--device {text}: {err}") from None
+
+
+def writable_folder(folder: Path, flag: str, target: Path) -> None:
+    """Refuse ``folder`` (where ``target`` goes) if it or its nearest existing parent is
+    not a writable folder: fail before the work, not after it."""
+    existing = folder.absolute()
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise UsageError(f"{flag} {target}: {existing} is a file, not a folder; choose another "
+                         f"{flag}")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag} {target}: cannot write into {existing} (permission denied "
+                         f"or read-only); choose another {flag} or fix the folder's permissions")
+
+
+def output_file(text: str, flag: str, example: str) -> Path:
+    """Check an output file path (not a folder, in a writable folder) before the work."""
+    path = Path(text)
+    if path.is_dir():
+        raise UsageError(f"{flag} {path} is a directory; give a file name, e.g. "
+                         f"{path / example}")
+    if text.endswith(("/", os.sep)):
+        raise UsageError(f"{flag} {text!r} ends with a folder separator; give a file name, "
+                         f"e.g. {path / example}")
+    writable_folder(path.parent, flag, path)
+    return path
+
+
+def output_folder(text: str, flag: str) -> Path:
+    """Check an output folder path (not a file, writable) before the work."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"{flag} {path} is a file; give a folder (it is created if missing)")
+    writable_folder(path, flag, path)
+    return path
+
+
+def parse_categories(text: str) -> tuple[str, ...]:
+    """``--categories`` as a tuple of known names, refusing empty, unknown and repeated ones."""
+    from e2vlib.paper import CATEGORIES
+
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    if not names:
+        raise UsageError(f"--categories {text!r} names no category; give a comma-separated "
+                         f"subset of {','.join(CATEGORIES)} (or leave the option out for all "
+                         f"{len(CATEGORIES)})")
+    unknown = [name for name in names if name not in CATEGORIES]
+    if unknown:
+        raise UsageError(f"--categories: unknown {unknown}; choose from {','.join(CATEGORIES)}")
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise UsageError(f"--categories names {repeated} more than once; list each once")
+    return tuple(names)
+
+
+def model_frames_check(model, ckpt: dict, checkpoint: str, data_config: dict | None,
+                        input_shape, source: str) -> None:
+    """Refuse data whose frames differ from those the checkpoint's model was trained on."""
+    from e2vlib.model import check_frames_match, checkpoint_data_config
+
+    check_frames_match(checkpoint_data_config(ckpt), data_config, f"checkpoint {checkpoint}",
+                       source)
+    if input_shape is not None and tuple(input_shape) != tuple(model.input_shape):
+        raise CommandError(
+            f"checkpoint {checkpoint} takes frames of shape {tuple(model.input_shape)} "
+            f"(n_frames, H, W) but {source} has {tuple(input_shape)}; use data built with "
+            "the checkpoint's settings (make-data --frame-size), or a model trained on it")

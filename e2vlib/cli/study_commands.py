@@ -1,0 +1,51 @@
+"""The study command: ``experiment STUDY`` (training studies, and the geometry study).
+
+Each run appends one record to ``OUT/STUDY.json`` (:mod:`e2vlib.experiments`); lessons 09 to
+12 read those records.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from e2vlib.cli.checks import check_device, output_folder
+from e2vlib.cli.errors import UsageError
+
+
+def run_experiment(args: argparse.Namespace) -> int:
+    from e2vlib.experiments import DEFAULT_OUT, STUDIES, format_summary, run_study, summarize
+
+    if args.study == "geometry":
+        return run_geometry_study(args)
+    if args.study not in STUDIES:
+        raise UsageError(f"unknown study {args.study!r}; choose one of {', '.join(STUDIES)}")
+    unknown = [c for c in args.configs or () if c not in STUDIES[args.study].configs]
+    if unknown:
+        raise UsageError(f"study {args.study!r} has no configs {unknown}; it has "
+                         f"{', '.join(STUDIES[args.study].configs)}")
+    check_device(args.device)
+    out = args.out or (DEFAULT_OUT.parent / "results-quick" if args.quick else DEFAULT_OUT)
+    output_folder(str(out), "--out")
+    path = run_study(args.study, args.configs, args.seeds, out, device=args.device,
+                     quick=args.quick, reuse=not args.no_reuse)
+    print(f"{path}:")
+    print(format_summary(summarize(path)))
+    return 0
+
+
+def run_geometry_study(args: argparse.Namespace) -> int:
+    from e2vlib.experiments import DEFAULT_OUT
+    from e2vlib.geometry_study import run_geometry_study, summarize_geometry
+
+    if args.configs or args.quick:
+        raise UsageError("the geometry study has no configs and no quick mode (no training); "
+                         "run `python -m e2vlib experiment geometry`")
+    out = args.out or DEFAULT_OUT
+    output_folder(str(out), "--out")
+    path = run_geometry_study(out)
+    print(f"{path}:")
+    for row in summarize_geometry(path):
+        low, high = row["ci95"]
+        print(f"  {row['method']:15s} IoU@0.3 {row['mean']:.3f} ({low:.3f}-{high:.3f}, "
+              f"{row['n']} objects)")
+    return 0
