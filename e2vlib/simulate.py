@@ -115,6 +115,17 @@ leak events to the 20,000-30,000 signal events of an object."""
 class TooManyEventsError(ValueError):
     """The simulation would make more events than its ``max_events`` limit allows.
 
+    Examples
+    --------
+    One pixel brightening from 0.1 to 0.3 makes 5 events, more than a limit of 2:
+
+    >>> video = np.array([[[0.1, 0.5]], [[0.3, 0.5]]])
+    >>> simulate_events(video, [0, 1000], max_events=2)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.simulate.TooManyEventsError: the simulation would make more than max_events=2 \
+events (5 in the first 1 of 1 frame pairs; up to 7 for the whole video, ...
+
     Introduced in notebooks/03_simulating_events.ipynb.
     """
 
@@ -209,6 +220,18 @@ def draw_thresholds(
     clipped from below at :data:`MIN_CONTRAST`. With ``contrast_sigma = 0`` they are constant.
     ``contrast_sigma`` is v2e's ``sigma_thres`` (a normal spread of both thresholds per pixel).
 
+    Examples
+    --------
+    >>> on, off = draw_thresholds((2, 3))  # no spread: the paper's C = 0.2 everywhere
+    >>> on.shape, on.dtype, float(on.min()), float(off.max())
+    ((2, 3), dtype('float64'), 0.2, 0.2)
+    >>> on, off = draw_thresholds((2, 3), contrast_sigma=0.05, seed=0)
+    >>> on.round(3)
+    array([[0.206, 0.193, 0.232],
+           [0.205, 0.173, 0.218]])
+    >>> bool((on != off).any() and on.min() >= MIN_CONTRAST)
+    True
+
     Introduced in notebooks/03_simulating_events.ipynb.
     """
     c_on = _check_positive("contrast_pos", contrast_pos)
@@ -265,6 +288,22 @@ def simulate_events(
     Work per frame pair is one comparison of the two frames plus arithmetic on the pixels
     whose intensity changed and on the events they make; nothing loops over pixels (with
     leak events every pixel changes in every pair).
+
+    Examples
+    --------
+    A 1 x 2 px video of two frames 1 ms apart: the left pixel brightens from 0.1 to 0.3, a
+    log change of ``log(0.301 / 0.101) = 1.092``, i.e. ``floor(1.092 / 0.2) = 5`` ON events
+    at the times the interpolated log intensity crosses each level (``1000 * 0.2 k /
+    1.092`` us); the right pixel stays at 0.5 and says nothing:
+
+    >>> video = np.array([[[0.1, 0.5]], [[0.3, 0.5]]])  # (n, H, W) = (2, 1, 2)
+    >>> events = simulate_events(video, [0, 1000])
+    >>> events["t"].tolist(), events["x"].tolist(), events["p"].tolist()
+    ([183, 366, 549, 733, 916], [0, 0, 0, 0, 0], [1, 1, 1, 1, 1])
+    >>> len(simulate_events(video, [0, 1000], contrast_pos=0.5))  # floor(1.092 / 0.5)
+    2
+    >>> len(simulate_events(video, [0, 1000], refractory_us=300))  # 183, 549, 916 kept
+    3
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """

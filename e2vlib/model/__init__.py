@@ -6,7 +6,7 @@ Input ``(batch, n_frames, H, W)`` float event frames (the frame axis is time), o
 ``(batch, C, n_frames, H, W)``. Encoders: the paper's 3D ResNet (preset ``"tiny"``), and a
 per-frame 2D ResNet with temporal max pooling (``"tiny2d"``) or a GRU over time
 (``"tiny_gru"``). Every public name is importable from here
-(``from e2vlib.model import E2V, build_e2v, load_checkpoint``); the code lives in six
+(``from e2vlib.model import E2V, build_e2v, load_checkpoint``); the code lives in seven
 modules, each with one job:
 
 =========================  =================================================================
@@ -25,11 +25,14 @@ modules, each with one job:
 ``model.networks``         the whole network: :class:`E2V`, :func:`build_e2v`,
                            :func:`count_parameters`; re-exports the names of the three
                            modules above (its home before they were split out)
+``model.integrity``        is a checkpoint intact: :func:`weights_digest`,
+                           :func:`verify_weights` (digest and NaN checks),
+                           :class:`CheckpointError`, :data:`DIGEST_KEY`
 ``model.checkpoint``       checkpoint files: :func:`save_checkpoint`,
-                           :func:`read_checkpoint` (digest and NaN checks),
+                           :func:`read_checkpoint` (verified on read),
                            :func:`load_checkpoint`, :func:`model_from_checkpoint`,
-                           :func:`slim_checkpoint`, :class:`CheckpointError`, and the data
-                           config a model was trained on (:func:`checkpoint_data_config`,
+                           :func:`slim_checkpoint`, and the data config a model was
+                           trained on (:func:`checkpoint_data_config`,
                            :func:`check_frames_match`)
 ``model.summary``          size and memory: :func:`parameter_breakdown`, :func:`summary`,
                            :func:`format_summary`, :func:`activation_bytes`
@@ -37,10 +40,11 @@ modules, each with one job:
 
 Imports run one way: ``config`` imports only ``e2vlib.paper``; ``encoders`` imports
 ``config``; ``decoder`` imports ``config`` and ``encoders`` (their convolution and
-normalization helpers); ``networks`` those three; ``checkpoint`` and ``summary`` import
-``networks`` (and ``e2vlib.files``); none imports this package's ``__init__``. The
-package attribute ``e2vlib.model.summary`` is the function :func:`summary`; import the
-module itself as ``from e2vlib.model.summary import ...`` or with
+normalization helpers); ``networks`` those three; ``integrity``, ``checkpoint`` and
+``summary`` import ``networks`` (``checkpoint`` also ``integrity`` and ``e2vlib.files``);
+none imports this package's ``__init__``. The package attribute ``e2vlib.model.summary`` is
+the function :func:`summary`; import the module itself as
+``from e2vlib.model.summary import ...`` or with
 ``importlib.import_module("e2vlib.model.summary")``.
 
 Introduced in notebooks/05_the_e2v_model.ipynb.
@@ -48,9 +52,7 @@ Introduced in notebooks/05_the_e2v_model.ipynb.
 
 from e2vlib.model.checkpoint import (
     DATA_CONFIG_KEY,
-    DIGEST_KEY,
     FRAME_FIELDS,
-    CheckpointError,
     check_frames_match,
     checkpoint_data_config,
     frame_settings,
@@ -59,8 +61,6 @@ from e2vlib.model.checkpoint import (
     read_checkpoint,
     save_checkpoint,
     slim_checkpoint,
-    verify_weights,
-    weights_digest,
 )
 from e2vlib.model.config import (
     BOTTLENECKS,
@@ -82,6 +82,7 @@ from e2vlib.model.encoders import (
     Frames2dGRUEncoder,
     ResNetEncoder,
 )
+from e2vlib.model.integrity import DIGEST_KEY, CheckpointError, verify_weights, weights_digest
 from e2vlib.model.networks import E2V, build_e2v, count_parameters
 from e2vlib.model.summary import (
     activation_bytes,

@@ -8,20 +8,22 @@ A checkpoint is the dict that :func:`save_checkpoint` hands to ``torch.save``::
     "data_config"     the dataset build settings it was trained on (dict), or None
     ...               anything else the caller adds (optimizer state, epoch, history)
 
-Files are read with ``torch.load(weights_only=True)``, so no code hidden in a file can
-run, and written under a temporary name that is renamed when complete
-(:class:`e2vlib.files.atomic_path`). :func:`read_checkpoint` refuses a file whose weights
-no longer match their digest (corrupted after writing) or hold NaN or inf. Checkpoints
-written before digests existed (such as the shipped ``data_small/checkpoints/tiny.pt``)
-load without the digest check. :func:`check_frames_match` refuses data whose frames were
-made differently from those a checkpoint was trained on.
+Files are read with ``torch.load(weights_only=True)``, so no code hidden in a file can run,
+and written under a temporary name that is renamed when complete
+(:class:`e2vlib.files.atomic_path`). :func:`read_checkpoint` refuses a file whose weights no
+longer match their digest (corrupted after writing) or hold NaN or inf
+(:func:`~e2vlib.model.integrity.verify_weights`; :class:`CheckpointError`,
+:data:`DIGEST_KEY` and :func:`weights_digest` live in :mod:`e2vlib.model.integrity` and are
+importable from here too). Checkpoints written before digests existed (such as the shipped
+``data_small/checkpoints/tiny.pt``) load without the digest check.
+:func:`check_frames_match` refuses data whose frames were made differently from those a
+checkpoint was trained on.
 
 Introduced in notebooks/05_the_e2v_model.ipynb.
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -31,10 +33,8 @@ import torch
 
 from e2vlib import paper
 from e2vlib.files import atomic_path
+from e2vlib.model.integrity import DIGEST_KEY, CheckpointError, verify_weights, weights_digest
 from e2vlib.model.networks import E2V, E2VConfig
-
-DIGEST_KEY = "weights_sha256"
-"""Checkpoint key of the weights' SHA-256 digest (hex string)."""
 
 DATA_CONFIG_KEY = "data_config"
 """Checkpoint key of the dataset build settings the model was trained on."""
@@ -51,103 +51,6 @@ fixed clock windows of ``frames.accumulate(..., windows="fixed")``."""
 
 SLIM_KEEP = ("history", "metadata", "recipe", "epoch", "best_iou", "seed", "loss")
 """Entries :func:`slim_checkpoint` copies by default (besides config, weights, data config)."""
-
-
-class CheckpointError(ValueError):
-    """A checkpoint file cannot be read, is corrupted, or does not describe an E2V model.
-
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-
-
-# --------------------------------------------------------------------------- digest
-
-
-def weights_digest(state_dict: Mapping[str, torch.Tensor]) -> str:
-    """SHA-256 (hex) of a state dict: every tensor's name, dtype, shape and raw bytes.
-
-    Tensors are taken in sorted name order, so the digest does not depend on the order
-    of the dict; each is hashed from a CPU copy, so neither does the device. Any change
-    of a single byte of any weight changes the digest.
-
-    Examples
-    --------
-    >>> a = {"w": torch.ones(2, 3), "b": torch.zeros(2)}
-    >>> weights_digest(a) == weights_digest({"b": torch.zeros(2), "w": torch.ones(2, 3)})
-    True
-    >>> weights_digest(a) == weights_digest({"w": torch.ones(3, 2), "b": torch.zeros(2)})
-    False
-    >>> len(weights_digest(a))
-    64
-    """
-    h = hashlib.sha256()
-    for name in sorted(state_dict):
-        tensor = state_dict[name]
-        if not isinstance(tensor, torch.Tensor):
-            raise TypeError(f"state dict entry {name!r} is a {type(tensor).__name__}, not a "
-                            "tensor; weights_digest hashes tensors only")
-        tensor = tensor.detach().to("cpu").contiguous()
-        header = f"{name}\0{tensor.dtype}\0{tuple(tensor.shape)}\0".encode()
-        data = tensor.reshape(-1).view(torch.uint8).numpy()
-        # Lengths first, so that no two different (header, data) sequences hash alike.
-        h.update(len(header).to_bytes(8, "little"))
-        h.update(header)
-        h.update(int(data.nbytes).to_bytes(8, "little"))
-        h.update(memoryview(data))
-    return h.hexdigest()
-
-
-def verify_weights(ckpt: Mapping[str, Any], source: object = "checkpoint") -> None:
-    """Raise :class:`CheckpointError` if ``ckpt``'s weights are damaged.
-
-    Checks the stored :data:`DIGEST_KEY` digest when there is one (older checkpoints have
-    none and skip this check), then that every floating-point tensor is finite.
-    ``source`` names the file in the messages.
-    """
-    state = ckpt["model"]
-    if not isinstance(state, Mapping):
-        raise CheckpointError(f"{source}: 'model' must be a state dict, got "
-                              f"{type(state).__name__}. Re-create it with save_checkpoint.")
-    stored = ckpt.get(DIGEST_KEY)
-    if stored is not None:
-        try:
-            actual = weights_digest(state)
-        except TypeError as err:
-            raise CheckpointError(f"{source} is corrupted: {err}") from err
-        if not isinstance(stored, str) or actual != stored:
-            raise CheckpointError(
-                f"{source} is corrupted: its weights do not match the SHA-256 digest stored "
-                f"with them (stored {str(stored)[:16]}..., computed {actual[:16]}...)"
-                f"{_key_problems(ckpt)}, so the file changed after it was written (a "
-                "damaged copy or disk, or an edit). Copy it again or re-create it with "
-                "save_checkpoint.")
-    for name, tensor in state.items():
-        if isinstance(tensor, torch.Tensor) and (tensor.is_floating_point()
-                                                 or tensor.is_complex()):
-            finite = torch.isfinite(tensor)
-            if not bool(finite.all()):
-                n_nan = int(torch.isnan(tensor).sum())
-                n_inf = int((~finite).sum()) - n_nan
-                raise CheckpointError(
-                    f"{source} holds non-finite weights: the first bad parameter is {name!r} "
-                    f"({n_nan} NaN and {n_inf} inf of {tensor.numel()} values). A model with "
-                    "them predicts NaN. The training run diverged (retrain with a lower "
-                    "learning rate) or the file is damaged; use an earlier checkpoint such "
-                    "as best.pt.")
-
-
-def _key_problems(ckpt: Mapping[str, Any]) -> str:
-    """Missing and unexpected state-dict names against the stored config, as a clause."""
-    try:
-        with torch.device("meta"):  # shapes only: nothing is allocated
-            expected = set(E2V(E2VConfig.from_dict(dict(ckpt["config"]))).state_dict())
-    except (ValueError, TypeError, KeyError):
-        return ""
-    found = set(ckpt["model"])
-    missing, unexpected = sorted(expected - found), sorted(found - expected)
-    parts = ([f"missing {missing[:5]}"] if missing else []) + (
-        [f"unexpected {unexpected[:5]}"] if unexpected else [])
-    return f"; state dict {', '.join(parts)}" if parts else ""
 
 
 # --------------------------------------------------------------------------- save / read
@@ -179,6 +82,18 @@ def save_checkpoint(path: str | os.PathLike, model: E2V,
     Path
         ``path``.
 
+    Examples
+    --------
+    >>> import tempfile
+    >>> from e2vlib.model.networks import build_e2v
+    >>> path = Path(tempfile.mkdtemp()) / "run" / "m.pt"  # the folder is created
+    >>> model = build_e2v("tiny", input_shape=(16, 32, 32), seed=0)
+    >>> save_checkpoint(path, model, data_config={"frame_size": 32}, epoch=3) == path
+    True
+    >>> ckpt = read_checkpoint(path)
+    >>> sorted(ckpt), ckpt["epoch"], ckpt[DATA_CONFIG_KEY]
+    (['config', 'data_config', 'epoch', 'model', 'weights_sha256'], 3, {'frame_size': 32})
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
     model = getattr(model, "module", model)  # unwrap DistributedDataParallel/DataParallel
@@ -203,6 +118,21 @@ def read_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     FileNotFoundError if the file is missing, and :class:`CheckpointError` (a ValueError)
     naming the file if it is corrupted, lacks the keys, or holds non-finite weights;
     ``verify=False`` reads a damaged file anyway, for inspection.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from e2vlib.model.networks import build_e2v
+    >>> path = save_checkpoint(Path(tempfile.mkdtemp()) / "m.pt",
+    ...                        build_e2v("tiny", input_shape=(16, 32, 32), seed=0))
+    >>> ckpt = read_checkpoint(path)
+    >>> ckpt["config"]["input_shape"], len(ckpt[DIGEST_KEY])
+    ([16, 32, 32], 64)
+    >>> read_checkpoint(path.parent / "none.pt")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: checkpoint .../none.pt does not exist; train one first ...
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
     path = Path(path)
@@ -256,7 +186,22 @@ def model_from_checkpoint(ckpt: dict, map_location: str | torch.device = "cpu",
     """Rebuild the :class:`E2V` of a dict from :func:`read_checkpoint`, in eval mode.
 
     For callers that also need the checkpoint's other entries (metadata, history)
-    without reading the file twice. Introduced in notebooks/05_the_e2v_model.ipynb.
+    without reading the file twice.
+
+    Examples
+    --------
+    >>> from e2vlib.model.networks import build_e2v
+    >>> model = build_e2v("tiny", input_shape=(16, 32, 32), seed=0)
+    >>> ckpt = {"config": model.config.to_dict(), "model": model.state_dict()}
+    >>> again = model_from_checkpoint(ckpt)
+    >>> again.config == model.config, again.training  # rebuilt, in eval mode
+    (True, False)
+    >>> model_from_checkpoint({**ckpt, "model": {}}, source="m.pt")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.model.integrity.CheckpointError: m.pt does not match an E2V model: ...
+
+    Introduced in notebooks/05_the_e2v_model.ipynb.
     """
     try:
         model = E2V(E2VConfig.from_dict(dict(ckpt["config"])))
@@ -273,7 +218,25 @@ def slim_checkpoint(src: str | os.PathLike, dst: str | os.PathLike, half: bool =
     Keeps the config, the weights (as float16 when ``half``: ``load_checkpoint`` casts
     them back to float32) with a new digest, the data config and the ``keep`` entries.
     The source is verified first. The committed ``data_small/checkpoints/tiny.pt`` was
-    made this way (before digests existed). Introduced in notebooks/06_training.ipynb.
+    made this way (before digests existed).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from e2vlib.model.networks import build_e2v
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> model = build_e2v("tiny", input_shape=(16, 32, 32), seed=0)
+    >>> big = save_checkpoint(folder / "last.pt", model, epoch=9, optimizer={"lr": 1e-3})
+    >>> small = slim_checkpoint(big, folder / "slim.pt")
+    >>> sorted(read_checkpoint(small))  # the optimizer state is gone
+    ['config', 'data_config', 'epoch', 'model', 'weights_sha256']
+    >>> read_checkpoint(small)["model"]["head.weight"].dtype, small.stat().st_size < \
+big.stat().st_size
+    (torch.float16, True)
+    >>> load_checkpoint(small).head.weight.dtype  # read back as float32
+    torch.float32
+
+    Introduced in notebooks/06_training.ipynb.
     """
     ckpt = read_checkpoint(src)
     state = {k: v.half() if half and v.is_floating_point() else v

@@ -28,7 +28,18 @@ from e2vlib.model.encoders import _conv, _norm
 class Bridge(nn.Module):
     """Encoder output ``(B, c, t, h, w)`` -> hidden volume ``(B, C, 32, 32, 32)``.
 
-    See :class:`E2VConfig` for the three kinds. Introduced in notebooks/05_the_e2v_model.ipynb.
+    See :class:`E2VConfig` for the three kinds.
+
+    Examples
+    --------
+    >>> config = E2VConfig(input_shape=(16, 32, 32))  # bridge "fc": 4 channels from a 4^3 seed
+    >>> Bridge(config, (64, 1, 1, 1))(torch.zeros(2, 64, 1, 1, 1)).shape
+    torch.Size([2, 4, 32, 32, 32])
+    >>> reshape = Bridge(E2VConfig(bridge="reshape"), (64, 4, 16, 8))  # 32768 values: C = 1
+    >>> reshape.channels, reshape(torch.zeros(1, 64, 4, 16, 8)).shape
+    (1, torch.Size([1, 1, 32, 32, 32]))
+
+    Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 
     def __init__(self, config: E2VConfig, encoder_shape: tuple[int, int, int, int]) -> None:
@@ -91,6 +102,15 @@ class UNetDecoder(nn.Module):
     the refiner does. Up block i: transposed conv (kernel 4, stride 2, padding 1; exactly
     doubles the grid) -> norm -> ReLU, then the down path's features of the same size are
     **added** (Pix2Vox++ skips; addition keeps widths small where a classic UNet concatenates).
+
+    Examples
+    --------
+    Three down blocks (widths 16, 32, 64) take 32^3 to a 64 x 4^3 bottom and back:
+
+    >>> decoder = UNetDecoder(4, E2VConfig(decoder_widths=(16, 32, 64))).eval()
+    >>> decoder.bottom_shape, decoder(torch.zeros(1, 4, 32, 32, 32)).shape
+    ((64, 4, 4, 4), torch.Size([1, 4, 32, 32, 32]))
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 

@@ -53,6 +53,18 @@ def _half(n: int) -> int:
 class BasicBlock(nn.Module):
     """Two 3x3(x3) convolutions with a residual shortcut (ResNet-10/18/34); ``dim`` 2 or 3.
 
+    Examples
+    --------
+    Stride 2 halves every axis; the shortcut becomes a 1x1x1 projection to the new width:
+    ``8*16*27 + 16*16*27`` conv weights, ``8*16`` projection weights, ``3 * 2*16`` norm
+    weights and biases:
+
+    >>> block = BasicBlock(8, 16, stride=2, norm="batch")
+    >>> block(torch.zeros(1, 8, 4, 8, 8)).shape, sum(p.numel() for p in block.parameters())
+    (torch.Size([1, 16, 2, 4, 4]), 10592)
+    >>> type(BasicBlock(8, 8, stride=1, norm="batch", dim=2).shortcut).__name__  # same shape
+    'Identity'
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 
@@ -73,6 +85,12 @@ class BasicBlock(nn.Module):
 
 class Bottleneck(nn.Module):
     """1x1 reduce, 3x3 (strided), 1x1 expand x4, with a residual shortcut (ResNet-50+).
+
+    Examples
+    --------
+    >>> block = Bottleneck(16, 4, stride=1, norm="batch")  # width 4, output 4 * 4 = 16
+    >>> block(torch.zeros(1, 16, 4, 8, 8)).shape
+    torch.Size([1, 16, 4, 8, 8])
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
@@ -109,6 +127,20 @@ class ResNetEncoder(nn.Module):
     of t (the frame axis), h, w shrunk about 32x (16x without the stem pool). 2D:
     ``(N, C, H, W)`` -> ``(N, out_channels, h, w)``. ``C`` is ``config.in_channels``: only
     the stem's convolution depends on it. Stages: ``stem``, ``layer1`` .. ``layer4``.
+
+    Examples
+    --------
+    16 frames of 32 x 32 px: the stride-2 stem and its pool give 4 x 8 x 8, the three
+    strided stages 1 x 1 x 1, with ``8 * 2**3 = 64`` channels:
+
+    >>> from e2vlib.model.config import E2VConfig
+    >>> config = E2VConfig(input_shape=(16, 32, 32))
+    >>> encoder = ResNetEncoder(config).eval()
+    >>> encoder.output_shape((16, 32, 32)), encoder(torch.zeros(1, 1, 16, 32, 32)).shape
+    ((64, 1, 1, 1), torch.Size([1, 64, 1, 1, 1]))
+    >>> ResNetEncoder(config, dim=2).eval()(torch.zeros(3, 1, 32, 32)).shape  # 3 images
+    torch.Size([3, 64, 1, 1])
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 
@@ -169,8 +201,16 @@ class Frames2dEncoder(nn.Module):
     The alternative the paper names as future work: each frame is encoded on its own by a
     2D ResNet (same depth/width options as the 3D one), and time is mixed only by max
     pooling the per-frame feature maps over ``time_bins`` groups of frames, giving
-    ``(B, c, time_bins, h, w)``, shaped like the 3D encoder's output. Introduced in
-    notebooks/05_the_e2v_model.ipynb.
+    ``(B, c, time_bins, h, w)``, shaped like the 3D encoder's output.
+
+    Examples
+    --------
+    >>> from e2vlib.model.config import E2VConfig
+    >>> encoder = Frames2dEncoder(E2VConfig(input_shape=(16, 32, 32), encoder="frames2d"))
+    >>> encoder.output_shape((16, 32, 32)), encoder.eval()(torch.zeros(2, 1, 16, 32, 32)).shape
+    ((64, 4, 1, 1), torch.Size([2, 64, 4, 1, 1]))
+
+    Introduced in notebooks/05_the_e2v_model.ipynb.
     """
 
     time_bins = 4
@@ -201,6 +241,15 @@ class Frames2dGRUEncoder(nn.Module):
     first), and its final hidden state is the output, ``(B, gru_hidden, 1, 1, 1)`` (shaped
     like the other encoders' ``(B, c, t, h, w)`` for the bridge). Time is mixed only by the
     recurrence, so the order of the frames matters, unlike max pooling.
+
+    Examples
+    --------
+    >>> from e2vlib.model.config import E2VConfig
+    >>> config = E2VConfig(input_shape=(16, 32, 32), encoder="frames2d_gru", gru_hidden=32)
+    >>> encoder = Frames2dGRUEncoder(config).eval()
+    >>> encoder.features, encoder(torch.zeros(2, 1, 16, 32, 32)).shape  # 64 per frame in
+    (64, torch.Size([2, 32, 1, 1, 1]))
+
     Introduced in notebooks/10_architectures_and_losses.ipynb.
     """
 

@@ -63,6 +63,16 @@ def summary(model: E2V, batch_size: int = 1) -> list[dict[str, Any]]:
     stage for the backward pass of a training step, weights excluded). Runs on a
     meta-device copy built from ``model.config``, so it allocates nothing and takes about
     a second even for the paper preset, whatever device ``model`` lives on.
+
+    Examples
+    --------
+    >>> from e2vlib.model.networks import build_e2v
+    >>> rows = summary(build_e2v("tiny", input_shape=(16, 32, 32)))
+    >>> [row["name"] for row in rows][:3], len(rows)
+    (['encoder.stem', 'encoder.layer1', 'encoder.layer2'], 14)
+    >>> rows[-1]  # the head: 4 weights + 1 bias; it keeps its 4 x 32^3 float32 input
+    {'name': 'head', 'shape': (1, 1, 32, 32, 32), 'params': 5, 'saved_bytes': 524288}
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
     rows, _ = _profile(model, batch_size)
@@ -76,6 +86,17 @@ def activation_bytes(model: E2V, batch_size: int = 1) -> int:
     once per storage (views and in-place results are not double counted), on a meta-device
     copy; the weights themselves are left out. The result already includes ``batch_size``.
     Weights, their gradients and optimizer state come on top.
+
+    Examples
+    --------
+    >>> from e2vlib.model.networks import build_e2v
+    >>> model = build_e2v("tiny", input_shape=(16, 32, 32))
+    >>> one = activation_bytes(model)
+    >>> one, activation_bytes(model, batch_size=2) == 2 * one
+    (4390656, True)
+    >>> one == sum(row["saved_bytes"] for row in summary(model))
+    True
+
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
     _, total = _profile(model, batch_size)
@@ -136,6 +157,17 @@ def _profile(model: E2V, batch_size: int) -> tuple[list[dict[str, Any]], int]:
 
 def format_summary(rows: list[dict[str, Any]]) -> str:
     """Render :func:`summary` rows as a fixed-width text table with a total line.
+
+    Examples
+    --------
+    >>> rows = [{"name": "stem", "shape": (1, 8, 4, 8, 8), "params": 232,
+    ...          "saved_bytes": 2**20}, {"name": "head", "shape": (1, 1, 32, 32, 32),
+    ...          "params": 5, "saved_bytes": 2**19}]
+    >>> print(format_summary(rows))
+    stage                output shape                        params  saved MiB
+    stem                 (1, 8, 4, 8, 8)                        232        1.0
+    head                 (1, 1, 32, 32, 32)                       5        0.5
+    total                                                       237        1.5
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
