@@ -20,6 +20,22 @@ def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
     (types 1 and 2) have no area and are left out. Materials and textures are not read.
     Raises :class:`RealMeshError` naming ``where`` and the line for text that does not
     parse or holds no polygon.
+
+    Examples
+    --------
+    One square (a four-vertex polygon: two triangles) in an object moved by ``loc 1 0 0``:
+
+    >>> text = "\\n".join(["AC3Db", "OBJECT world", "kids 1", "OBJECT poly", "loc 1 0 0",
+    ...                    "numvert 4", "0 0 0", "1 0 0", "1 1 0", "0 1 0", "numsurf 1",
+    ...                    "SURF 0x10", "mat 0", "refs 4", "0 0 0", "1 0 0", "2 0 0", "3 0 0",
+    ...                    "kids 0"])
+    >>> mesh = ac3d_to_mesh(text)
+    >>> len(mesh.faces), mesh.bounds.tolist()
+    (2, [[1.0, 0.0, 0.0], [2.0, 1.0, 0.0]])
+    >>> ac3d_to_mesh("OBJECT world", "plane.ac")
+    Traceback (most recent call last):
+    ...
+    e2vlib.real_meshes.catalogue.RealMeshError: plane.ac: not an AC3D file (no AC3D header)
     """
     lines = text.splitlines()
     if not lines or not lines[0].startswith("AC3D"):

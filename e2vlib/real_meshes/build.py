@@ -26,7 +26,15 @@ BUILD_COMMAND = ("apt-get install -y sweethome3d-furniture crrcsim-data && "
 
 
 def real_sample_seed(seed: int, sample_id: str) -> int:
-    """A stable 31-bit simulator seed for the real object ``sample_id``."""
+    """A stable 31-bit simulator seed for the real object ``sample_id``.
+
+    Examples
+    --------
+    >>> real_sample_seed(0, "chair_bs0_armchair")
+    1592418502
+    >>> real_sample_seed(1, "chair_bs0_armchair") != real_sample_seed(0, "chair_bs0_armchair")
+    True
+    """
     import hashlib
 
     digest = hashlib.sha256(f"{seed}/real/{sample_id}".encode()).digest()
@@ -38,7 +46,18 @@ def real_config(config, catalogue: str | os.PathLike = MAPPING_CSV,
     """config.json of a real-mesh dataset: the frame and render settings of ``config`` (a
     :class:`e2vlib.data.BuildConfig`; ``per_category`` dropped, as the catalogue sets the
     objects), the categories present, and where the meshes came from (the libraries'
-    folder and the catalogue, as given, with the catalogue's sha256)."""
+    folder and the catalogue, as given, with the catalogue's sha256).
+
+    Examples
+    --------
+    >>> from e2vlib.data import BuildConfig
+    >>> d = real_config(BuildConfig(categories=("chair",), per_category=4))
+    >>> "per_category" in d, len(d["categories"]), "rifle" in d["categories"]  # no real rifle
+    (False, 12, False)
+    >>> d["source"]["packages"], d["source"]["install"]
+    (['sweethome3d-furniture', 'crrcsim-data'], 'apt-get install sweethome3d-furniture \
+crrcsim-data')
+    """
     import hashlib
 
     catalogue = Path(catalogue)
@@ -79,6 +98,23 @@ def build_real_dataset(root: str | os.PathLike, config,
     :class:`e2vlib.data.E2VDataset` (split ``test``) and ``evaluate`` read it. Resumable:
     samples on disk are skipped; every file is written to a temporary name and renamed.
     Raises FileNotFoundError naming the install step when the package is absent.
+
+    Examples
+    --------
+    Without Debian's package the build stops before it writes anything, naming the install:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from e2vlib.data import BuildConfig
+    >>> root = Path(tempfile.mkdtemp()) / "real"
+    >>> build_real_dataset(root, BuildConfig(categories=("chair",), per_category=1),
+    ...                    folder=root.parent / "no_package")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: no .sh3f furniture libraries in ...: sweethome3d-furniture is not \
+installed; apt-get install sweethome3d-furniture
+    >>> root.exists()
+    False
     """
     import json
 

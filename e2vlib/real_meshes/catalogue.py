@@ -70,7 +70,20 @@ CRRCSIM_CREATOR = "CRRCSim contributors (Debian copyright: J. E. Kansky, M. Drel
 
 class RealMeshError(ValueError):
     """A real-mesh library, catalogue entry or mapping row that cannot be used; the message
-    names the file or entry and the fix."""
+    names the file or entry and the fix.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> junk = Path(tempfile.mkdtemp()) / "junk.sh3f"
+    >>> _ = junk.write_bytes(b"not a zip")
+    >>> try:
+    ...     read_catalogue(junk)
+    ... except RealMeshError as err:  # a ValueError
+    ...     print(str(err).split(": ")[1].split(" (")[0])
+    not a readable .sh3f zip
+    """
 
 
 @dataclass(frozen=True)
@@ -81,6 +94,12 @@ class CatalogueEntry:
     (no leading slash); ``size_cm`` ``(width, depth, height)`` as the catalogue gives them
     (x, z, y of the OBJ, in cm); ``rotation`` the row-major 3x3 ``modelRotation`` (None when
     absent); ``licence`` the library's (:data:`LIBRARY_LICENCES`, or its ``license`` key).
+
+    Examples
+    --------
+    >>> entry = crrcsim_entry("plane.ac", "/objects")
+    >>> entry.library, entry.entry_id, entry.model, entry.size_cm, entry.licence
+    ('crrcsim-data', 'plane.ac', '/objects/plane.ac', None, 'GPL-2.0')
     """
 
     library: str
@@ -140,6 +159,8 @@ def parse_properties(text: str) -> dict[str, str]:
     Follows ``java.util.Properties.load``: ``#``/``!`` comments, ``=``, ``:`` or white space
     between key and value, backslash continuations and ``\\uXXXX`` escapes.
 
+    Examples
+    --------
     >>> parse_properties("# note\\nname#1=Arm\\\\\\n  chair\\nkey\\\\ one : caf\\\\u00e9")
     {'name#1': 'Armchair', 'key one': 'café'}
     """
@@ -184,6 +205,19 @@ def read_catalogue(library: str | os.PathLike) -> list[CatalogueEntry]:
 
     Raises :class:`RealMeshError` naming the file when it is not a zip, holds no
     :data:`CATALOGUE_FILE`, or an entry lacks its ``id``, ``name`` or ``model``.
+
+    Examples
+    --------
+    >>> import tempfile, zipfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> library = folder / "BlendSwap-CC-0.sh3f"
+    >>> with zipfile.ZipFile(library, "w") as zf:
+    ...     zf.writestr(CATALOGUE_FILE, "id#1=Test#box\\nname#1=Box table\\n"
+    ...                 "model#1=/box/box.obj\\nwidth#1=200\\ndepth#1=100\\nheight#1=50\\n")
+    >>> [(e.number, e.entry_id, e.name, e.model, e.size_cm, e.licence)
+    ...  for e in read_catalogue(library)]
+    [(1, 'Test#box', 'Box table', 'box/box.obj', (200.0, 100.0, 50.0), 'CC0-1.0')]
     """
     path = Path(library)
     if not path.is_file():
@@ -221,7 +255,23 @@ def read_catalogue(library: str | os.PathLike) -> list[CatalogueEntry]:
 
 def installed_libraries(folder: str | os.PathLike = FURNITURE_DIR) -> list[Path]:
     """The ``.sh3f`` files in ``folder``, sorted; FileNotFoundError naming the install step
-    when there are none."""
+    when there are none.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> installed_libraries(folder)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: no .sh3f furniture libraries in ...: sweethome3d-furniture is not \
+installed; apt-get install sweethome3d-furniture
+    >>> for name in ("Scopia.sh3f", "KatorLegaz.sh3f", "notes.txt"):
+    ...     _ = (folder / name).write_bytes(b"")
+    >>> [path.name for path in installed_libraries(folder)]
+    ['KatorLegaz.sh3f', 'Scopia.sh3f']
+    """
     folder = Path(folder)
     found = sorted(folder.glob("*.sh3f")) if folder.is_dir() else []
     if not found:
@@ -231,7 +281,20 @@ def installed_libraries(folder: str | os.PathLike = FURNITURE_DIR) -> list[Path]
 
 
 def read_all_catalogues(folder: str | os.PathLike = FURNITURE_DIR) -> list[CatalogueEntry]:
-    """Entries of every installed library (:func:`installed_libraries`), library by library."""
+    """Entries of every installed library (:func:`installed_libraries`), library by library.
+
+    Examples
+    --------
+    >>> import tempfile, zipfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> library = folder / "BlendSwap-CC-0.sh3f"
+    >>> with zipfile.ZipFile(library, "w") as zf:
+    ...     zf.writestr(CATALOGUE_FILE, "id#1=Test#box\\nname#1=Box table\\n"
+    ...                 "model#1=/box/box.obj\\nwidth#1=200\\ndepth#1=100\\nheight#1=50\\n")
+    >>> [(e.library, e.entry_id) for e in read_all_catalogues(folder)]
+    [('BlendSwap-CC-0.sh3f', 'Test#box')]
+    """
     return [e for lib in installed_libraries(folder) for e in read_catalogue(lib)]
 
 
@@ -245,7 +308,17 @@ _NOT_ALLOWED = re.compile(r"NonCommercial|Non-Commercial|Share ?Alike|No ?Derivs
 def licence_from_text(text: str) -> str | None:
     """The licence (SPDX name of :data:`LICENCES`) a Blend Swap licence file (text or
     HTML) states ("Released under ..." or "under the following license: ..."), or None
-    when it states none of them or adds a NonCommercial / ShareAlike / NoDerivs term."""
+    when it states none of them or adds a NonCommercial / ShareAlike / NoDerivs term.
+
+    Examples
+    --------
+    >>> licence_from_text("<p>Released under Creative Commons Attribution 3.0</p>")
+    'CC-BY-3.0'
+    >>> licence_from_text("Released under CC0")
+    'CC0-1.0'
+    >>> licence_from_text("Released under Creative Commons Attribution-NonCommercial 3.0") is None
+    True
+    """
     plain = " ".join(re.sub(r"<[^>]+>", " ", re.sub(r"<style.*?</style>", " ", text,
                                                       flags=re.S)).split())
     match = re.search(r"(?:Released under|under the following license:) (.{0,80})", plain)
@@ -265,7 +338,22 @@ def entry_licence(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE_D
     library's: two models of the CC0 library are CC-BY 3.0), else the library's licence
     (:data:`LIBRARY_LICENCES`, from its ``LICENSE.TXT``). ``licence`` is None when the
     model's own file names no allowed licence. A :data:`CRRCSIM` entry has the package's
-    licence, stated in its Debian copyright file."""
+    licence, stated in its Debian copyright file.
+
+    Examples
+    --------
+    >>> import tempfile, zipfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> library = folder / "BlendSwap-CC-0.sh3f"
+    >>> with zipfile.ZipFile(library, "w") as zf:
+    ...     zf.writestr(CATALOGUE_FILE, "id#1=Test#box\\nname#1=Box table\\n"
+    ...                 "model#1=/box/box.obj\\nwidth#1=200\\ndepth#1=100\\nheight#1=50\\n")
+    ...     zf.writestr("box/BLENDSWAP_LICENSE.txt", "Released under Creative Commons "
+    ...                 "Attribution 3.0")
+    >>> entry_licence(read_catalogue(library)[0], folder)  # the model's own file wins
+    ('CC-BY-3.0', 'box/BLENDSWAP_LICENSE.txt')
+    """
     if entry.library == CRRCSIM:
         return entry.licence, CRRCSIM_COPYRIGHT
     model_dir = posixpath.dirname(entry.model) + "/"
@@ -280,7 +368,18 @@ def entry_licence(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE_D
 
 def crrcsim_entry(file_name: str, crrcsim_folder: str | os.PathLike = CRRCSIM_DIR
                   ) -> CatalogueEntry:
-    """The :class:`CatalogueEntry` of the AC3D model ``file_name`` of crrcsim-data."""
+    """The :class:`CatalogueEntry` of the AC3D model ``file_name`` of crrcsim-data.
+
+    Examples
+    --------
+    >>> crrcsim_entry("plane.ac", "/objects").name
+    'plane'
+    >>> crrcsim_entry("../plane.ac")
+    Traceback (most recent call last):
+    ...
+    e2vlib.real_meshes.catalogue.RealMeshError: crrcsim-data entry '../plane.ac' must be a \
+plain .ac file name
+    """
     path = Path(crrcsim_folder) / file_name
     if Path(file_name).name != file_name or path.suffix != ".ac":
         raise RealMeshError(f"crrcsim-data entry {file_name!r} must be a plain .ac file name")

@@ -61,6 +61,19 @@ def obj_to_mesh(data: bytes, where: str = "OBJ") -> trimesh.Trimesh:
     the renderer shades by geometry; parts and groups are merged, duplicate vertices welded).
 
     Raises :class:`RealMeshError` for text with no triangles or NaN/inf vertices.
+
+    Examples
+    --------
+    Two triangles of two parts sharing an edge: their four vertices are welded into one mesh:
+
+    >>> mesh = obj_to_mesh(b"o a\\nv 0 0 0\\nv 1 0 0\\nv 0 1 0\\nf 1 2 3\\n"
+    ...                    b"o b\\nv 1 0 0\\nv 1 1 0\\nv 0 1 0\\nf 4 5 6\\n")
+    >>> len(mesh.vertices), len(mesh.faces)
+    (4, 2)
+    >>> obj_to_mesh(b"v 0 0 0\\n", "empty.obj")
+    Traceback (most recent call last):
+    ...
+    e2vlib.real_meshes.catalogue.RealMeshError: empty.obj: the OBJ holds no triangles
     """
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type="obj", force="mesh", process=False,
@@ -81,7 +94,18 @@ def obj_to_mesh(data: bytes, where: str = "OBJ") -> trimesh.Trimesh:
 def entry_transform(entry: CatalogueEntry, bounds: np.ndarray) -> np.ndarray:
     """4x4 transform taking the stored OBJ of ``entry`` (bounding box ``bounds``, (2, 3))
     to our frame as Sweet Home 3D shows it: ``modelRotation`` first, then each axis scaled
-    to the catalogue's width (x), height (y), depth (z), then :data:`SH3D_TO_ZUP`."""
+    to the catalogue's width (x), height (y), depth (z), then :data:`SH3D_TO_ZUP`.
+
+    Examples
+    --------
+    A unit cube shown 200 cm wide (x), 100 cm deep (z) and 50 cm high (y), then turned z up:
+
+    >>> from e2vlib.real_meshes.catalogue import CatalogueEntry
+    >>> entry = CatalogueEntry("BlendSwap-CC-0.sh3f", 1, "Test#box", "Box", "", "", "box.obj",
+    ...                        (200.0, 100.0, 50.0), None, "CC0-1.0")
+    >>> entry_transform(entry, np.array([[0.0, 0, 0], [1, 1, 1]])).astype(int).tolist()
+    [[200, 0, 0, 0], [0, 0, -100, 0], [0, 50, 0, 0], [0, 0, 0, 1]]
+    """
     rotation = np.eye(4)
     if entry.rotation is not None:
         rotation[:3, :3] = np.reshape(entry.rotation, (3, 3))
@@ -109,6 +133,23 @@ def load_entry_mesh(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE
     :data:`CRRCSIM` is read from its AC3D file (:func:`ac3d_to_mesh`). Raises
     FileNotFoundError naming the install step when the library is absent and
     :class:`RealMeshError` when its model cannot be read.
+
+    Examples
+    --------
+    A cube in a small library, shown 200 x 100 x 50 cm, comes out 1 x 0.5 x 0.25 (m, z up):
+
+    >>> import tempfile, zipfile
+    >>> from pathlib import Path
+    >>> from e2vlib.real_meshes.catalogue import read_catalogue
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with zipfile.ZipFile(folder / "BlendSwap-CC-0.sh3f", "w") as zf:
+    ...     zf.writestr("PluginFurnitureCatalog.properties", "id#1=Test#box\\nname#1=Box\\n"
+    ...                 "model#1=/box/box.obj\\nwidth#1=200\\ndepth#1=100\\nheight#1=50\\n")
+    ...     zf.writestr("box/box.obj", trimesh.exchange.obj.export_obj(trimesh.creation.box()))
+    >>> entry = read_catalogue(folder / "BlendSwap-CC-0.sh3f")[0]
+    >>> mesh = load_entry_mesh(entry, folder)
+    >>> mesh.extents.round(3).tolist(), mesh.bounds.mean(axis=0).round(3).tolist()
+    ([1.0, 0.5, 0.25], [0.0, 0.0, 0.0])
     """
     from e2vlib.shapes import normalize_mesh
 
