@@ -42,7 +42,15 @@ def _figures(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The parser of every subcommand (:func:`e2vlib.cli.parser.build_parser`)."""
+    """The parser of every subcommand (:func:`e2vlib.cli.parser.build_parser`).
+
+    Examples
+    --------
+    >>> args = build_parser().parse_args(["reconstruct", "--checkpoint", "best.pt",
+    ...                                  "--mesh", "chair.obj", "--out", "r.npz"])
+    >>> args.command, args.device, args.seed, args.overwrite
+    ('reconstruct', 'auto', 0, False)
+    """
     return parser.build_parser(figures=_figures)
 
 
@@ -50,6 +58,15 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit status (0 success, 1 failure, 2 bad usage).
 
     ``--debug`` anywhere in ``argv`` lets exceptions propagate with their traceback.
+
+    Examples
+    --------
+    >>> import contextlib, io
+    >>> with contextlib.redirect_stderr(io.StringIO()) as err:
+    ...     status = main(["train", "--data", "d", "--out", "r", "--epochs", "0"])
+    >>> status, err.getvalue()
+    (2, 'error: argument --epochs: must be a whole number >= 1, got 0 (see python -m e2vlib \
+train --help)\\n')
     """
     return run(build_parser, argv)
 

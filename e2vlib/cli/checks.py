@@ -25,7 +25,18 @@ PICTURE_TYPES = (".png", ".jpg", ".jpeg", ".pdf", ".svg")
 # --------------------------------------------------------------------------- argument types
 
 def whole_number(minimum: int):
-    """An argparse type: a whole number >= ``minimum``."""
+    """An argparse type: a whole number >= ``minimum``.
+
+    Examples
+    --------
+    >>> at_least_one = whole_number(1)
+    >>> at_least_one("3")
+    3
+    >>> at_least_one("0")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: must be a whole number >= 1, got 0
+    """
 
     def parse(text: str) -> int:
         try:
@@ -43,7 +54,17 @@ def whole_number(minimum: int):
 
 
 def bounded(minimum: int, maximum: int):
-    """An argparse type: a whole number from ``minimum`` to ``maximum``."""
+    """An argparse type: a whole number from ``minimum`` to ``maximum``.
+
+    Examples
+    --------
+    >>> bounded(1, 8192)("8192")
+    8192
+    >>> bounded(1, 8192)("9000")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: must be a whole number from 1 to 8192, got 9000
+    """
     parse_low = whole_number(minimum)
 
     def parse(text: str) -> int:
@@ -58,7 +79,17 @@ def bounded(minimum: int, maximum: int):
 
 
 def positive_number(text: str) -> float:
-    """An argparse type: a finite number > 0."""
+    """An argparse type: a finite number > 0.
+
+    Examples
+    --------
+    >>> positive_number("1e-3")
+    0.001
+    >>> positive_number("nan")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: must be a finite number > 0, got nan
+    """
     try:
         value = float(text)
     except ValueError:
@@ -72,7 +103,17 @@ def positive_number(text: str) -> float:
 
 
 def check_device(text: str) -> None:
-    """Refuse a ``--device`` torch cannot use here, listing the valid ones."""
+    """Refuse a ``--device`` torch cannot use here, listing the valid ones.
+
+    Examples
+    --------
+    >>> check_device("cpu")  # usable here: no answer
+    >>> check_device("tpu")
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --device 'tpu' is not a device; use one of auto, cpu, cuda, \
+cuda:N (the N-th GPU), mps
+    """
     import torch
 
     from e2vlib.train import resolve_device
@@ -100,7 +141,20 @@ def check_device(text: str) -> None:
 
 def writable_folder(folder: Path, flag: str, target: Path) -> None:
     """Refuse ``folder`` (where ``target`` goes) if it or its nearest existing parent is
-    not a writable folder: fail before the work, not after it."""
+    not a writable folder: fail before the work, not after it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> blocker = Path(tempfile.mkdtemp()) / "file.txt"
+    >>> _ = blocker.write_text("x")
+    >>> writable_folder(blocker / "run", "--out", blocker / "run")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --out .../file.txt/run: .../file.txt is a file, not a folder; \
+choose another --out
+    """
     existing = folder.absolute()
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent
@@ -113,7 +167,20 @@ def writable_folder(folder: Path, flag: str, target: Path) -> None:
 
 
 def output_file(text: str, flag: str, example: str) -> Path:
-    """Check an output file path (not a folder, in a writable folder) before the work."""
+    """Check an output file path (not a folder, in a writable folder) before the work.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> output_file(str(folder / "new" / "r.npz"), "--out", "r.npz") == folder / "new" / "r.npz"
+    True
+    >>> output_file(str(folder), "--out", "r.npz")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --out ... is a directory; give a file name, e.g. .../r.npz
+    """
     path = Path(text)
     if path.is_dir():
         raise UsageError(f"{flag} {path} is a directory; give a file name, e.g. "
@@ -126,7 +193,22 @@ def output_file(text: str, flag: str, example: str) -> Path:
 
 
 def output_folder(text: str, flag: str) -> Path:
-    """Check an output folder path (not a file, writable) before the work."""
+    """Check an output folder path (not a file, writable) before the work.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> blocker = Path(tempfile.mkdtemp()) / "file.txt"
+    >>> _ = blocker.write_text("x")
+    >>> output_folder(str(blocker.parent / "run"), "--out").name  # created later if missing
+    'run'
+    >>> output_folder(str(blocker), "--out")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --out .../file.txt is a file; give a folder (it is created if \
+missing)
+    """
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise UsageError(f"{flag} {path} is a file; give a folder (it is created if missing)")
@@ -135,7 +217,18 @@ def output_folder(text: str, flag: str) -> Path:
 
 
 def parse_categories(text: str) -> tuple[str, ...]:
-    """``--categories`` as a tuple of known names, refusing empty, unknown and repeated ones."""
+    """``--categories`` as a tuple of known names, refusing empty, unknown and repeated ones.
+
+    Examples
+    --------
+    >>> parse_categories("chair, table")
+    ('chair', 'table')
+    >>> parse_categories("chair,chairs")
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --categories: unknown ['chairs']; choose from airplane,bench,\
+cabinet,car,chair,display,lamp,speaker,rifle,sofa,table,telephone,watercraft
+    """
     from e2vlib.paper import CATEGORIES
 
     names = [name.strip() for name in text.split(",") if name.strip()]
@@ -154,7 +247,22 @@ def parse_categories(text: str) -> tuple[str, ...]:
 
 def model_frames_check(model, ckpt: dict, checkpoint: str, data_config: dict | None,
                         input_shape, source: str) -> None:
-    """Refuse data whose frames differ from those the checkpoint's model was trained on."""
+    """Refuse data whose frames differ from those the checkpoint's model was trained on.
+
+    Examples
+    --------
+    >>> from e2vlib.model import build_e2v
+    >>> model = build_e2v("tiny", input_shape=(10, 16, 16))
+    >>> ckpt = {"data_config": {"n_frames": 10, "frame_size": 16, "dt_us": 5000}}
+    >>> model_frames_check(model, ckpt, "m.pt", {"frame_size": 16, "n_frames": 10},
+    ...                    (10, 16, 16), "dataset d")  # the same frames: no answer
+    >>> model_frames_check(model, ckpt, "m.pt", None, (10, 32, 32), "dataset d")
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.CommandError: checkpoint m.pt takes frames of shape (10, 16, 16) \
+(n_frames, H, W) but dataset d has (10, 32, 32); use data built with the checkpoint's \
+settings (make-data --frame-size), or a model trained on it
+    """
     from e2vlib.model import check_frames_match, checkpoint_data_config
 
     check_frames_match(checkpoint_data_config(ckpt), data_config, f"checkpoint {checkpoint}",

@@ -21,7 +21,21 @@ DATA_PRESETS = {
 
 
 def build_config(args: argparse.Namespace):
-    """The BuildConfig a ``make-data`` command line asks for (UsageError if invalid)."""
+    """The BuildConfig a ``make-data`` command line asks for (UsageError if invalid).
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> config = build_config(parse(["make-data", "--out", "d", "--preset", "small",
+    ...                              "--categories", "chair,table", "--noise", "low"]))
+    >>> config.categories, config.per_category, config.resolution, config.frame_size, config.noise
+    (('chair', 'table'), 64, 128, 64, 'low')
+    >>> build_config(parse(["make-data", "--out", "d", "--resolution", "32", "--frame-size", "64"]))
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: invalid dataset settings: frame_size 64 must divide resolution 32
+    """
     from e2vlib.data import BuildConfig
     from e2vlib.paper import CATEGORIES
 
@@ -44,6 +58,17 @@ def build_config(args: argparse.Namespace):
 
 
 def run_make_data(args: argparse.Namespace) -> int:
+    """``make-data``: build a dataset (or the real-mesh test set) after printing its plan.
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> run_make_data(parse(["make-data", "--out", "d", "--shard", "3/2"]))  # before any work
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --shard: shard '3/2': need 0 <= i < n
+    """
     from e2vlib.data import build_dataset, check_build_folder, describe_build, parse_shard
 
     try:
@@ -66,6 +91,21 @@ def run_make_data(args: argparse.Namespace) -> int:
 
 
 def run_merge_data(args: argparse.Namespace) -> int:
+    """``merge-data``: join the folders of a sharded build, or verify a shared one in place.
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> run_merge_data(parse(["merge-data", "--out", str(folder / "all"), str(folder / "s0")]))
+    ... # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: shard folder .../s0: no such folder; give the --out folders of \
+the make-data --shard runs
+    """
     from e2vlib.shards import merge_datasets
 
     out = output_folder(args.out, "--out")
@@ -89,6 +129,17 @@ def run_merge_data(args: argparse.Namespace) -> int:
 
 
 def run_verify_data(args: argparse.Namespace) -> int:
+    """``verify-data``: check every sample; list each bad one and exit 1 if any.
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> run_verify_data(parse(["verify-data", "--data", "no_such_dataset"]))
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: dataset folder no_such_dataset does not exist
+    """
     from e2vlib.data import build_command, verify_dataset
 
     checked, problems, unhashed = verify_dataset(args.data)

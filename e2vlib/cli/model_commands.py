@@ -19,7 +19,26 @@ from e2vlib.cli.errors import CommandError, UsageError
 
 
 def resume_checks(last: Path, ckpt: dict, preset: str | None) -> None:
-    """Refuse to resume from a weights-only checkpoint or with another ``--preset``."""
+    """Refuse to resume from a weights-only checkpoint or with another ``--preset``.
+
+    Examples
+    --------
+    >>> from e2vlib.model import PRESETS
+    >>> from e2vlib.train import RESUME_KEYS
+    >>> last = Path("run/last.pt")
+    >>> resume_checks(last, {"config": PRESETS["tiny"].to_dict()}, None)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.CommandError: cannot resume from run/last.pt: it holds the weights only \
+(no optimizer, epoch, best_iou, history, torch_rng; ...
+    >>> full = {"config": PRESETS["tiny"].to_dict(), **dict.fromkeys(RESUME_KEYS)}
+    >>> resume_checks(last, full, "tiny")  # the model's own preset: no answer
+    >>> resume_checks(last, full, "tiny2d")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.CommandError: --preset tiny2d differs from the model in run/last.pt, which \
+holds preset tiny (different encoder); ...
+    """
     from dataclasses import fields, replace
 
     from e2vlib.model import PRESETS, E2VConfig
@@ -49,6 +68,18 @@ def resume_checks(last: Path, ckpt: dict, preset: str | None) -> None:
 
 
 def run_train(args: argparse.Namespace) -> int:
+    """``train``: check everything before the work, then :func:`e2vlib.train.fit`.
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> run_train(parse(["train", "--data", "d", "--out", "r", "--recipe", "bogus"]))
+    ... # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --recipe 'bogus' is not a training recipe; choose one of ...
+    """
     from e2vlib.data import E2VDataset
     from e2vlib.dataset_checks import read_config
     from e2vlib.model import PRESETS, build_e2v, model_from_checkpoint, read_checkpoint
@@ -122,6 +153,20 @@ def run_train(args: argparse.Namespace) -> int:
 
 
 def run_evaluate(args: argparse.Namespace) -> int:
+    """``evaluate``: the paper's tables for a checkpoint on a split (and ``--json``).
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> import tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> run_evaluate(parse(["evaluate", "--checkpoint", "none.pt", "--data", "d", "--json",
+    ...                     folder]))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --json ... is a directory; give a file name, e.g. .../results.json
+    """
     import json
 
     from e2vlib.data import E2VDataset
@@ -153,6 +198,19 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
 
 def run_reconstruct(args: argparse.Namespace) -> int:
+    """``reconstruct``: :func:`e2vlib.reconstruct.reconstruct`, written to ``--out``.
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> run_reconstruct(parse(["reconstruct", "--checkpoint", "none.pt", "--events", "e.h5",
+    ...                        "--out", "r.npz", "--png", "r.gif"]))
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --png r.gif: unknown picture type '.gif'; end the name with one \
+of .png, .jpg, .jpeg, .pdf, .svg
+    """
     import numpy as np
 
     from e2vlib.files import atomic_path

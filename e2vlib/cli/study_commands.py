@@ -13,6 +13,17 @@ from e2vlib.cli.errors import UsageError
 
 
 def run_experiment(args: argparse.Namespace) -> int:
+    """``experiment STUDY``: run (or finish) a study and print its summary.
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> run_experiment(parse(["experiment", "bogus"]))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: unknown study 'bogus'; choose one of representation, time, ...
+    """
     from e2vlib.experiments import DEFAULT_OUT, STUDIES, format_summary, run_study, summarize
 
     if args.study == "geometry":
@@ -34,6 +45,18 @@ def run_experiment(args: argparse.Namespace) -> int:
 
 
 def run_geometry_study(args: argparse.Namespace) -> int:
+    """``experiment geometry``: score the geometry baselines, no training.
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> run_geometry_study(parse(["experiment", "geometry", "--quick"]))
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: the geometry study has no configs and no quick mode (no \
+training); run `python -m e2vlib experiment geometry`
+    """
     from e2vlib.experiments import DEFAULT_OUT
     from e2vlib.geometry_study import run_geometry_study, summarize_geometry
 
