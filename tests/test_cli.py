@@ -483,3 +483,50 @@ def test_merge_data_usage_errors(capsys, tmp_path):
     code, _, err = run(capsys, "merge-data", "--out", tmp_path / "m", tmp_path)
     assert code == 1 and "is not a dataset folder (no config.json)" in err
     assert not (tmp_path / "m").exists()
+
+
+# --- one home for each fact (issue 24) -------------------------------------------------------
+
+
+def test_the_choices_are_the_librarys_own_tuples():
+    from e2vlib.__main__ import build_parser
+    from e2vlib.data import SPLITS
+    from e2vlib.frames import WINDOWS
+    from e2vlib.losses import LOSSES
+    from e2vlib.model import PRESETS
+    from e2vlib.render import ANTI_ALIASING
+    from e2vlib.simulate import NOISE_LEVELS
+    from e2vlib.train import PRECISIONS, RECIPES
+
+    commands = next(a for a in build_parser()._actions if a.dest == "command").choices
+
+    def option(command: str, dest: str):
+        return next(a for a in commands[command]._actions if a.dest == dest)
+
+    assert tuple(option("make-data", "windows").choices) == WINDOWS
+    assert tuple(option("make-data", "noise").choices) == tuple(NOISE_LEVELS)
+    assert tuple(option("make-data", "splits").choices) == SPLITS
+    assert option("make-data", "splits").default == list(SPLITS)
+    assert tuple(option("make-data", "anti_aliasing").choices) == ANTI_ALIASING
+    assert tuple(option("train", "loss").choices) == tuple(LOSSES)
+    assert tuple(option("train", "precision").choices) == PRECISIONS
+    assert tuple(option("evaluate", "split").choices) == SPLITS
+    for name in PRESETS:
+        assert name in option("train", "preset").help
+    for name in RECIPES:
+        assert name in option("train", "recipe").help
+
+
+def test_reconstruct_writes_what_the_library_returns(trained, tmp_path):
+    from e2vlib.reconstruct import reconstruct
+
+    _, _, out = trained
+    mesh_path = tmp_path / "box.stl"
+    trimesh.creation.box((0.6, 0.4, 0.8)).export(mesh_path)
+    assert main(["reconstruct", "--checkpoint", str(out / "best.pt"), "--mesh", str(mesh_path),
+                 "--out", str(tmp_path / "r.npz"), "--device", "cpu"]) == 0
+    result = reconstruct(out / "best.pt", mesh=mesh_path, device="cpu")
+    with np.load(tmp_path / "r.npz", allow_pickle=False) as written:
+        assert sorted(written) == sorted(result.arrays())
+        for key, value in result.arrays().items():
+            np.testing.assert_array_equal(written[key], value)
