@@ -15,17 +15,17 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,418 lines)::
+Module map (``python tools/module_map.py --write``; 19,675 lines)::
 
-    __main__.py             61  Command line
+    __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
-    cli/                   891  The command line's parts: python -m e2vlib (__main__) runs them
-      checks.py            166  Checks of command-line values before any work starts
-      data_commands.py     108  The dataset commands
+    cli/                  1131  The command line's parts: python -m e2vlib (__main__) runs them
+      checks.py            274  Checks of command-line values before any work starts
+      data_commands.py     159  The dataset commands
       errors.py            124  How the command line fails
-      model_commands.py    202  The model commands
+      model_commands.py    260  The model commands
       parser.py            204  The command line's parser
-      study_commands.py     51  The study command
+      study_commands.py     74  The study command
     data/                 2311  Datasets
       build.py             204  Building a dataset
       checks.py            280  A dataset folder is untrusted input

@@ -38,7 +38,7 @@ imports ``catalogue``; ``meshes`` those two; ``mapping`` ``catalogue`` and ``mes
 imports this ``__init__``. Until the split this package was one module,
 ``e2vlib/real_meshes.py``; every name it had is still importable from here.
 
-Introduced in notebooks/13_putting_it_together.ipynb.
+Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
 from e2vlib.real_meshes.ac3d import ac3d_to_mesh

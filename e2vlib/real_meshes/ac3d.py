@@ -1,6 +1,6 @@
 """A small reader of AC3D (``.ac``) models, the format of Debian's crrcsim-data aircraft.
 
-Introduced in notebooks/13_putting_it_together.ipynb.
+Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ data_small/real/catalogue.csv``, :data:`BUILD_COMMAND`) makes one test sample pe
 of the reviewed table with :func:`e2vlib.data.mesh_to_sample`, in a dataset folder that
 :class:`e2vlib.data.E2VDataset` reads; :mod:`e2vlib.real_study` scores models on it.
 
-Introduced in notebooks/13_putting_it_together.ipynb.
+Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
 from __future__ import annotations

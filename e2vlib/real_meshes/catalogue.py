@@ -10,7 +10,7 @@ is under one licence, stated in its ``LICENSE.TXT`` (CC0 or CC-BY 3.0;
 (:func:`entry_licence`). The aircraft of ``crrcsim-data`` are AC3D files on disk, one
 :class:`CatalogueEntry` each (:func:`crrcsim_entry`).
 
-Introduced in notebooks/13_putting_it_together.ipynb.
+Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
 from __future__ import annotations

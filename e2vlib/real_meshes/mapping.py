@@ -6,7 +6,7 @@ stating it, our category, its pose, whether we keep it and what looking at it sh
 :func:`read_mapping` reads and checks it (:func:`check_mapping`); :func:`resolve` pairs
 each row with its entry of the installed libraries.
 
-Introduced in notebooks/13_putting_it_together.ipynb.
+Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ turns it as Sweet Home 3D shows it (:func:`entry_transform`, :data:`SH3D_TO_ZUP`
 front -y), applies the reviewed pose (:data:`POSES`) and normalizes it (bounding box
 centred, longest side 1).
 
-Introduced in notebooks/13_putting_it_together.ipynb.
+Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
 from __future__ import annotations
