@@ -15,7 +15,10 @@ Usage::
         [--out experiments/records/collapse_probe.json]
 
 Each (study, config, seed, recipe, epochs) is one record of the output file, written
-atomically when the run ends; a record already there is skipped.
+atomically when the run ends; a record already there is skipped. Records carry the recipe's
+fields as they were (``recipe_fields``): the records named ``tiny_step`` without
+``head_prior`` were made before that recipe gained ``output_prior``, so they show warm-up
+alone.
 """
 
 from __future__ import annotations
@@ -46,6 +49,11 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
     train = experiments.load_split(protocol, "train")
     val = experiments.load_split(protocol, "val")
     model = build_e2v(protocol["preset"], seed=seed, input_shape=tuple(train.frames.shape[-3:]))
+    from e2vlib.train import get_recipe
+
+    if head_prior and get_recipe(protocol["recipe"]).output_prior:
+        raise SystemExit(f"recipe {protocol['recipe']} already starts at the labels' "
+                         "occupancy (output_prior); drop --head-prior")
     if head_prior:  # start at the training labels' mean occupancy, not at p = 0.5 + features
         occupancy = float(train.voxels.float().mean())
         with torch.no_grad():
@@ -92,7 +100,12 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
                 progress=False, on_step=on_step, on_epoch=on_epoch)
         except _Enough:
             pass
+    from dataclasses import asdict
+
+    from e2vlib.train import get_recipe
+
     return {"study": study, "config": config, "seed": seed, "recipe": protocol["recipe"],
+            "recipe_fields": asdict(get_recipe(protocol["recipe"])),
             "head_prior": head_prior, "leaky_bridge": leaky_bridge,
             "epochs_watched": epochs, "protocol": protocol,
             "history": history, "steps": steps,
