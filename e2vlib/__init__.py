@@ -15,15 +15,15 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,675 lines)::
+Module map (``python tools/module_map.py --write``; 19,701 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
-    cli/                  1131  The command line's parts: python -m e2vlib (__main__) runs them
+    cli/                  1130  The command line's parts: python -m e2vlib (__main__) runs them
       checks.py            274  Checks of command-line values before any work starts
       data_commands.py     159  The dataset commands
       errors.py            124  How the command line fails
-      model_commands.py    260  The model commands
+      model_commands.py    259  The model commands
       parser.py            204  The command line's parser
       study_commands.py     74  The study command
     data/                 2311  Datasets
@@ -98,10 +98,10 @@ Module map (``python tools/module_map.py --write``; 19,675 lines)::
       vehicles.py          394  Procedural category builders
     shards.py                8  Old home of shards (joining sharded builds); its names live ...
     simulate.py            586  Turn a video into events with the ESIM model of an event camera
-    train/                 962  Training and evaluation of E2V
+    train/                 989  Training and evaluation of E2V
       devices.py           126  Where and how fast training runs
       evaluation.py        158  Predictions and the Pix2Vox evaluation protocol
-      loop.py              395  The training loop, fit, and what resuming it checks
+      loop.py              420  The training loop, fit, and what resuming it checks
       recipes.py           192  Training recipes (optimizer settings and epochs) and their ...
     viz/                  1331  Pictures of events, frames, voxels and meshes
       animation.py          70  Matplotlib animations of frame stacks, shown as ...

@@ -39,12 +39,12 @@ def resume_checks(last: Path, ckpt: dict, preset: str | None) -> None:
     e2vlib.cli.errors.CommandError: --preset tiny2d differs from the model in run/last.pt, which \
 holds preset tiny (different encoder); ...
     """
-    from dataclasses import fields, replace
+    from dataclasses import replace
 
     from e2vlib.model import PRESETS, E2VConfig
-    from e2vlib.train import RESUME_KEYS
+    from e2vlib.train import resume_problems
 
-    missing = [key for key in RESUME_KEYS if key not in ckpt]
+    missing, _ = resume_problems(ckpt)
     if missing:
         raise CommandError(
             f"cannot resume from {last}: it holds the weights only (no {', '.join(missing)}; "
@@ -59,8 +59,7 @@ holds preset tiny (different encoder); ...
         names = [name for name, config in PRESETS.items()
                  if replace(config, input_shape=stored.input_shape) == stored]
         held = f"preset {names[0]}" if names else "a model of no preset"
-        differ = [f.name for f in fields(stored)
-                  if getattr(stored, f.name) != getattr(wanted, f.name)]
+        _, differ = resume_problems(ckpt, wanted)
         raise CommandError(
             f"--preset {preset} differs from the model in {last}, which holds {held} "
             f"(different {', '.join(differ)}); resume without --preset (the model comes "

@@ -19,7 +19,7 @@ in four modules, each with one job:
                           :func:`to_channels_last`, :data:`PRECISIONS`,
                           :func:`init_distributed_from_env`
 ``train.loop``            :func:`fit`, :func:`init_output_prior` and what resuming checks
-                          (:func:`read_resume_state`)
+                          (:func:`resume_problems`, :func:`read_resume_state`)
 ``train.evaluation``      :func:`predict`, :func:`evaluate`, :func:`category_mean_shapes`
 ========================  ==================================================================
 
@@ -49,6 +49,7 @@ from e2vlib.train.loop import (
     fit,
     init_output_prior,
     read_resume_state,
+    resume_problems,
 )
 from e2vlib.train.recipes import (
     COSINE_FLOOR,
@@ -86,6 +87,7 @@ __all__ = [
     "preload",
     "read_resume_state",
     "resolve_device",
+    "resume_problems",
     "score_predictions",
     "to_channels_last",
 ]

@@ -348,6 +348,37 @@ def _check_sample_shape(model: E2V, got: tuple[int, ...], name: str) -> None:
                      f"in_channels={channels}); {advice}")
 
 
+def _stored_config(state: dict) -> dict:
+    """A checkpoint's model config as a dict, with fields added after it was written (such
+    as ``in_channels``) filled in where it is a valid config."""
+    stored = dict(state["config"])
+    try:
+        return E2VConfig.from_dict(stored).to_dict()
+    except (ValueError, TypeError):
+        return stored  # not a valid config: a comparison names what differs
+
+
+def resume_problems(state: dict, config: E2VConfig | None = None) -> tuple[list[str], list[str]]:
+    """What keeps ``state`` (a read ``last.pt``) from resuming a run of a model of
+    ``config``: ``(missing, differ)``, the :data:`RESUME_KEYS` it lacks and the config fields
+    that differ (sorted; ``[]`` without ``config``). :func:`read_resume_state` and the
+    command line's ``train --resume`` word their errors from it.
+
+    Examples
+    --------
+    >>> from e2vlib.model import PRESETS
+    >>> state = {"config": PRESETS["tiny"].to_dict(), "epoch": 3}
+    >>> missing, differ = resume_problems(state, PRESETS["tiny2d"])
+    >>> missing, differ
+    (['optimizer', 'best_iou', 'history', 'torch_rng'], ['encoder'])
+    """
+    missing = [key for key in RESUME_KEYS if key not in state]
+    if config is None:
+        return missing, []
+    ours, stored = config.to_dict(), _stored_config(state)
+    return missing, sorted(k for k in ours.keys() | stored.keys() if ours.get(k) != stored.get(k))
+
+
 def read_resume_state(path: Path, model: E2V, data_config: dict | None,
                        device: torch.device, loss: str = LEGACY_LOSS) -> dict:
     """Read ``last.pt`` for a resume and check it belongs to this model and data.
@@ -364,20 +395,14 @@ def read_resume_state(path: Path, model: E2V, data_config: dict | None,
     FileNotFoundError: checkpoint no/such/last.pt does not exist; train one first ...
     """
     state = read_checkpoint(path, map_location=device)
-    missing = [key for key in RESUME_KEYS if key not in state]
+    missing, differ = resume_problems(state, model.config)
     if missing:
         raise CheckpointError(
             f"cannot resume from {path}: it has no {missing} (a slimmed or hand-made "
             "checkpoint keeps only the weights). Resume needs the last.pt that fit writes; "
             "start a new run without resume (--resume) instead, e.g. into another folder.")
-    ours = model.config.to_dict()
-    stored = dict(state["config"])
-    try:  # fill in fields added after the checkpoint was written (in_channels, ...)
-        stored = E2VConfig.from_dict(stored).to_dict()
-    except (ValueError, TypeError):
-        pass  # not a valid config: the comparison below names what differs
-    differ = sorted(k for k in ours.keys() | stored.keys() if ours.get(k) != stored.get(k))
     if differ:
+        ours, stored = model.config.to_dict(), _stored_config(state)
         details = ", ".join(f"{k}: {stored.get(k)!r} in last.pt, {ours.get(k)!r} given"
                             for k in differ)
         raise ValueError(
