@@ -11,10 +11,8 @@ Lessons never retype a recorded number; they read it from here:
 - :func:`bench_section` and :func:`bench_table` read ``bench/RESULTS.md``, the benchmarks'
   figures, by section title, with the machine the section was measured on.
 
-The rule for "a real difference" is stated once, here and in lesson 09: two configs differ
-beyond the seed spread only when their 95 % intervals (Student's t over the seeds) do not
-overlap. With 3 seeds it is a conservative reading; a difference inside it is not a proof
-of equality either.
+The rule for "a real difference" (95 % intervals that do not overlap) is stated once, in
+:mod:`e2vlib.experiments.records` and lesson 09.
 
 Examples
 --------
@@ -23,8 +21,6 @@ Examples
 ...         {"config": "c", "n": 3, "mean": 0.44, "ci95": (0.40, 0.48), "values": [0.44] * 3}]
 >>> is_real_difference(rows[1], rows[0]), is_real_difference(rows[2], rows[0])
 (True, False)
->>> finding(rows, "a")
-'b is above a beyond the seed spread (0.550 against 0.400, +0.150); c is within it (0.440).'
 """
 
 from __future__ import annotations
