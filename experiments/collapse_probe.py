@@ -12,7 +12,7 @@ mean predicted occupancy.
 Usage::
 
     python experiments/collapse_probe.py STUDY CONFIG SEED [--epochs 3] [--recipe tiny_step]
-        [--out experiments/records/collapse_probe.json]
+        [--preset tiny_norm] [--out experiments/records/collapse_probe.json]
 
 Each (study, config, seed, recipe, epochs) is one record of the output file, written
 atomically when the run ends; a record already there is skipped. Records carry the recipe's
@@ -39,12 +39,16 @@ from e2vlib.train import fit
 
 
 def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
-          head_prior: bool = False, leaky_bridge: bool = False) -> dict:
-    """The per-step trace of the first ``epochs`` epochs of one study run."""
+          head_prior: bool = False, leaky_bridge: bool = False,
+          preset: str | None = None) -> dict:
+    """The per-step trace of the first ``epochs`` epochs of one study run (with another
+    recipe or model preset when given)."""
     spec = experiments.STUDIES[study]
     protocol = {**spec.protocol(), **spec.configs[config]}
     if recipe is not None:
         protocol["recipe"] = recipe
+    if preset is not None:
+        protocol["preset"] = preset
     torch.set_num_threads(int(protocol["threads"]))
     train = experiments.load_split(protocol, "train")
     val = experiments.load_split(protocol, "val")
@@ -69,7 +73,9 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
                 seen[name] = output.detach()
         return hook
 
-    model.bridge.fc.register_forward_hook(keep("bridge"))
+    # the bridge's seed volume after its ReLU (and its norm, where the preset has one)
+    seed_out = getattr(model.bridge, "seed_norm", model.bridge.fc)
+    seed_out.register_forward_hook(lambda m, i, out: keep("bridge")(m, i, out.flatten(1)))
     model.head.register_forward_hook(keep("logits"))
     steps: list[dict] = []
 
@@ -106,7 +112,7 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
 
     return {"study": study, "config": config, "seed": seed, "recipe": protocol["recipe"],
             "recipe_fields": asdict(get_recipe(protocol["recipe"])),
-            "head_prior": head_prior, "leaky_bridge": leaky_bridge,
+            "head_prior": head_prior, "leaky_bridge": leaky_bridge, "preset": protocol["preset"],
             "epochs_watched": epochs, "protocol": protocol,
             "history": history, "steps": steps,
             "seconds": round(time.perf_counter() - started, 1),
@@ -128,18 +134,21 @@ def main() -> None:
                         help="start the output layer at the labels' mean occupancy")
     parser.add_argument("--leaky-bridge", action="store_true",
                         help="LeakyReLU(0.01) instead of ReLU after the bridge")
+    parser.add_argument("--preset", default=None, help="another model preset than the study's")
     parser.add_argument("--out", default="experiments/records/collapse_probe.json")
     args = parser.parse_args()
     out = Path(args.out)
     records = json.loads(out.read_text()) if out.exists() else {}
     recipe = args.recipe or experiments.STUDIES[args.study].protocol()["recipe"]
-    key = f"{args.study}/{args.config}/seed{args.seed}/{recipe}/{args.epochs}ep" + (
-        "/head_prior" if args.head_prior else "") + ("/leaky_bridge" if args.leaky_bridge else "")
+    key = (f"{args.study}/{args.config}/seed{args.seed}/{recipe}/{args.epochs}ep"
+           + ("/head_prior" if args.head_prior else "")
+           + ("/leaky_bridge" if args.leaky_bridge else "")
+           + (f"/{args.preset}" if args.preset else ""))
     if key in records:
         print(f"{key}: already recorded")
         return
     record = probe(args.study, args.config, args.seed, args.epochs, args.recipe,
-                   args.head_prior, args.leaky_bridge)
+                   args.head_prior, args.leaky_bridge, args.preset)
     records[key] = record
     with atomic_path(out) as tmp:
         tmp.write_text(json.dumps(records, indent=1) + "\n")

@@ -381,6 +381,44 @@ def test_old_configs_without_the_new_fields_are_one_channel():
     assert config.sample_shape == config.input_shape == (100, 64, 64)
 
 
+def test_the_normalised_bridge_ignores_the_scale_of_its_linear_layer():
+    """bridge_norm's point: in training mode the seed volume does not grow with the fully
+    connected layer's weights (multiplying weight and bias by 1000 changes nothing but BN's
+    eps), while the unnormalised bridge's output grows 1000-fold."""
+    config = E2VConfig(input_shape=(8, 16, 16), bridge_norm=True)
+    z = torch.randn(6, 64, 1, 1, 1, generator=torch.Generator().manual_seed(0))
+    for norm, grows in ((True, 1.0), (False, 1000.0)):
+        bridge = Bridge(replace(config, bridge_norm=norm), (64, 1, 1, 1)).train()
+        before = bridge(z).detach()
+        with torch.no_grad():
+            bridge.fc[2].weight.mul_(1000)
+            bridge.fc[2].bias.mul_(1000)
+        after = bridge(z).detach()
+        assert torch.allclose(after, before * grows, rtol=1e-3, atol=1e-3), norm
+    normed = Bridge(config, (64, 1, 1, 1)).train()(z).detach()
+    seed = torch.nn.functional.interpolate(normed, size=(4, 4, 4), mode="nearest")
+    assert float(seed.min()) >= 0 and 0 < float((seed > 0).float().mean()) < 1  # a ReLU after
+
+
+def test_bridge_norm_adds_one_norm_and_old_checkpoints_load_without_it():
+    tiny, normed = PRESETS["tiny"], PRESETS["tiny_norm"]
+    assert replace(tiny, bridge_norm=True) == normed
+    assert PRESETS["tiny_gru_norm"] == replace(PRESETS["tiny_gru"], bridge_norm=True)
+    # 4 hidden channels: the norm's scale and shift add 8 parameters
+    assert (count_parameters(build_e2v("tiny_norm", seed=0))
+            - count_parameters(build_e2v("tiny", seed=0))) == 2 * tiny.hidden_channels == 8
+    stored = tiny.to_dict()
+    del stored["bridge_norm"]  # a checkpoint written before the field existed
+    assert E2VConfig.from_dict(stored) == tiny
+    old_keys = set(build_e2v("tiny", seed=0).state_dict())
+    assert not any("seed_norm" in k for k in old_keys)
+    assert old_keys < set(build_e2v("tiny_norm", seed=0).state_dict())
+    # only the fully connected bridge has an unnormalised output: elsewhere it is stored off
+    assert E2VConfig(bridge="interp", bridge_norm=True).bridge_norm is False
+    with pytest.raises(ValueError, match="bridge_norm must be True or False"):
+        E2VConfig(bridge_norm="yes")
+
+
 # ----------------------------------------------------------------------------- GRU encoder
 
 

@@ -70,6 +70,11 @@ class E2VConfig:
       from the input shape), ``"interp"`` (1x1x1 conv to ``hidden_channels``, then
       trilinear resize) or ``"fc"`` (a fully connected layer from the whole encoder output
       to a ``hidden_channels x seed_size^3`` seed, then trilinear resize: global context).
+    - ``bridge_norm``: with ``bridge="fc"``, normalise the seed volume (``norm``, per
+      channel) before its ReLU. The fully connected layer sums its whole input, so under
+      AdamW its output moves in proportion to the input's size (1,024 values at 64 px,
+      4,096 at 128 px); unnormalised, it can grow until the decoder cannot learn
+      (experiments/collapse_probe.py). Stored as False with the other bridges.
     - ``decoder_widths``: channels of the decoder's down blocks (each halves the grid).
     - ``bottleneck``: ``"fc"`` (two linear layers through ``bottleneck_features``, as in
       Pix2Vox++), ``"conv"`` (one 3x3x3 conv) or ``"none"``.
@@ -87,8 +92,9 @@ class E2VConfig:
 
     The field is called ``depth`` because checkpoints store it under that key; old
     checkpoints keep loading. :meth:`from_dict` also accepts ``resnet_depth``. Fields added
-    later (``in_channels``, ``gru_hidden``, ``gru_pool``) take their defaults when a stored
-    config lacks them, so older checkpoints load as one-channel models.
+    later (``in_channels``, ``gru_hidden``, ``gru_pool``, ``bridge_norm``) take their
+    defaults when a stored config lacks them, so older checkpoints load as one-channel
+    models with the bridge they were trained with.
 
     Examples
     --------
@@ -121,6 +127,7 @@ class E2VConfig:
     in_channels: int = 1
     gru_hidden: int = 256
     gru_pool: int = 1
+    bridge_norm: bool = False
 
     def __post_init__(self) -> None:
         # Accept lists (a config read back from JSON or a checkpoint) and store tuples.
@@ -130,6 +137,8 @@ class E2VConfig:
             for f in fields(self):
                 if f.name in _GRU_FIELDS:
                     object.__setattr__(self, f.name, f.default)
+        if self.bridge != "fc":  # only the fully connected bridge has an unnormalised output
+            object.__setattr__(self, "bridge_norm", False)
         problems = []
         if len(self.input_shape) != 3 or min(self.input_shape) < 1:
             problems.append(
@@ -161,6 +170,8 @@ class E2VConfig:
             problems.append(f"seed_size must divide {GRID_SIDE}, got {self.seed_size}")
         if not 0.0 <= self.dropout < 1.0:
             problems.append(f"dropout must be in [0, 1), got {self.dropout}")
+        if not isinstance(self.bridge_norm, bool):
+            problems.append(f"bridge_norm must be True or False, got {self.bridge_norm!r}")
         if problems:
             raise ValueError("invalid E2V config: " + "; ".join(problems))
 
@@ -284,4 +295,9 @@ PRESETS["tiny2d"] = replace(PRESETS["tiny"], encoder="frames2d")
 # 2.73 M parameters, 0.97x tiny's.
 PRESETS["tiny_gru"] = replace(PRESETS["tiny"], encoder="frames2d_gru", gru_hidden=256,
                               gru_pool=1)
+# "tiny" and "tiny_gru" with the bridge's seed volume normalised (bridge_norm): the fix of
+# the collapses some seeds of "tiny" show at 128 px (experiments/collapse_probe.py; the
+# stability_norm study). 8 more parameters: the norm's scale and shift of 4 channels.
+PRESETS["tiny_norm"] = replace(PRESETS["tiny"], bridge_norm=True)
+PRESETS["tiny_gru_norm"] = replace(PRESETS["tiny_gru"], bridge_norm=True)
 """Named configurations for :func:`build_e2v`."""

@@ -68,12 +68,14 @@ class Bridge(nn.Module):
         else:  # "fc"
             self.channels = config.hidden_channels
             self.seed_size = config.seed_size
-            self.fc = nn.Sequential(
-                nn.Flatten(),
-                nn.Dropout(config.dropout),
-                nn.Linear(n_in, self.channels * self.seed_size**3),
-                nn.ReLU(inplace=True),
-            )
+            layers = [nn.Flatten(), nn.Dropout(config.dropout),
+                      nn.Linear(n_in, self.channels * self.seed_size**3)]
+            if config.bridge_norm:  # normalise the seed volume, then the ReLU
+                self.seed_norm = nn.Sequential(_norm(config.norm, self.channels),
+                                               nn.ReLU(inplace=True))
+            else:  # the layout older checkpoints store
+                layers.append(nn.ReLU(inplace=True))
+            self.fc = nn.Sequential(*layers)
 
     def forward(self, z: torch.Tensor) -> torch.Tensor:
         b, size = z.shape[0], (GRID_SIDE,) * 3
@@ -83,6 +85,8 @@ class Bridge(nn.Module):
             y = self.project(z)
         else:
             y = self.fc(z).view(b, self.channels, *(self.seed_size,) * 3)
+            if hasattr(self, "seed_norm"):
+                y = self.seed_norm(y)
         if tuple(y.shape[-3:]) == size:
             return y
         return F.interpolate(y, size=size, mode="trilinear", align_corners=False)
