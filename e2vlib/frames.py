@@ -169,6 +169,13 @@ MAX_FRAMES_BYTES: int = 8 * 2**30
 available, :func:`frames_memory_limit`); larger requests raise EventError."""
 
 
+BINCOUNT_MAX_VALUES: int = 2**25
+"""Largest count stack (values) the numpy path of :func:`accumulate` counts with
+``np.bincount``, whose int64 result takes twice the int32 stack (256 MiB here); larger
+stacks count each touched value once, so the path holds no more than the stack the memory
+limit allowed plus memory per event."""
+
+
 def available_memory() -> int | None:
     """Bytes of memory available to new allocations now (Linux ``MemAvailable``, else the
     free physical pages), or None where neither can be read."""
@@ -373,7 +380,12 @@ def _accumulate_numpy(events: np.ndarray, sensor_size: tuple[int, int], t0: int,
             indices[start + a - lo:start + b - lo] = flat
     if binary is not None:
         return binary
-    return np.bincount(indices, minlength=n * frame_elements).astype(np.int32)
+    if n * frame_elements <= BINCOUNT_MAX_VALUES:
+        return np.bincount(indices, minlength=n * frame_elements).astype(np.int32)
+    counts = np.zeros(n * frame_elements, dtype=np.int32)  # the stack the limit allowed
+    touched, times = np.unique(indices, return_counts=True)
+    counts[touched] = times
+    return counts
 
 
 def time_surface(

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+import tracemalloc
 
 import h5py
 import numpy as np
@@ -87,6 +88,33 @@ def test_accumulate_caps_memory_at_half_of_what_is_available(monkeypatch):
     assert frames.frames_memory_limit() == (8 * 2**30, "frames.MAX_FRAMES_BYTES")
     with pytest.raises(EventError, match=r"limit 8.00 GiB: frames.MAX_FRAMES_BYTES"):
         accumulate(one, (65535, 65535), n_frames=3)
+
+
+@pytest.mark.parametrize("mode", ["count", "polarity"])
+def test_the_numpy_path_counts_within_the_stack_the_limit_allowed(monkeypatch, mode):
+    # np.bincount's int64 counts and their int32 copy took three times the stack the limit
+    # allowed (a 23 GiB machine ran out of memory in the property tests); stacks over
+    # BINCOUNT_MAX_VALUES (0 here) count each touched value instead
+    events = make_events([0, 5, 5, 5], [0, 7, 7, 7], [0, 10, 20, 1500], [1, -1, 1, 1])
+    expected = np.zeros((4, 1024, 1024) if mode == "count" else (4, 2, 1024, 1024), np.int32)
+    if mode == "count":
+        expected[0, 0, 0], expected[0, 7, 5], expected[1, 7, 5] = 1, 2, 1
+    else:  # channel 0 OFF, 1 ON
+        expected[0, 1, 0, 0] = expected[0, 0, 7, 5] = expected[0, 1, 7, 5] = 1
+        expected[1, 1, 7, 5] = 1
+    monkeypatch.setattr(frames, "BINCOUNT_MAX_VALUES", 0)
+    tracemalloc.start()
+    try:
+        stack = accumulate(events, (1024, 1024), dt_us=1000, n_frames=4, mode=mode,
+                           backend="numpy")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert stack.dtype == np.int32 and peak < 1.1 * stack.nbytes  # was 3.0 x
+    np.testing.assert_array_equal(stack, expected)
+    monkeypatch.setattr(frames, "BINCOUNT_MAX_VALUES", 2**25)  # np.bincount: the same counts
+    np.testing.assert_array_equal(accumulate(events, (1024, 1024), dt_us=1000, n_frames=4,
+                                             mode=mode, backend="numpy"), expected)
 
 
 def test_available_memory_is_read_on_this_machine():
