@@ -515,6 +515,10 @@ def test_the_choices_are_the_librarys_own_tuples():
         assert name in option("train", "preset").help
     for name in RECIPES:
         assert name in option("train", "recipe").help
+    from e2vlib.experiments import STUDIES
+
+    for name in (*STUDIES, "geometry"):
+        assert name in option("experiment", "study").help
 
 
 def test_reconstruct_writes_what_the_library_returns(trained, tmp_path):

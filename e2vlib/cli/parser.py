@@ -185,10 +185,12 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
                    help="columns of the reconstruction picture (comma-separated)")
     p.set_defaults(func=figures)
 
-    p = sub.add_parser("experiment", help="run a study (representation, time, encoder, loss): "
-                       "train and evaluate each config and seed, one record per run")
-    p.add_argument("study", help="representation, time, encoder, loss, or geometry (no "
-                   "training: visual hull and event carving beside the learned model)")
+    from e2vlib.experiments.studies import STUDIES
+
+    p = sub.add_parser("experiment", help="run a study (" + ", ".join(STUDIES) + "): train "
+                       "and evaluate each config and seed, one record per run")
+    p.add_argument("study", help=", ".join(STUDIES) + ", or geometry (no training: visual "
+                   "hull and event carving beside the learned model)")
     p.add_argument("--configs", nargs="+", help="only these configs of the study")
     p.add_argument("--seeds", nargs="+", type=count, default=[0, 1, 2],
                    help="seeds (default 0 1 2)")
