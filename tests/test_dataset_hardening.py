@@ -345,6 +345,12 @@ def test_config_garbage_names_the_file_and_the_fix(data, text, says):
     assert str(data / "config.json") in str(info.value) and "rebuild" in str(info.value)
 
 
+def test_a_folder_with_config_but_no_manifest_is_not_read_as_synthevox3d(data):
+    (data / "manifest.csv").unlink()  # a build stopped before it wrote the manifest
+    with pytest.raises(DatasetError, match=r"config.json but no manifest.csv.*rerun"):
+        E2VDataset(data, "train")
+
+
 def test_a_missing_config_names_the_file(data):
     (data / "config.json").unlink()
     with pytest.raises(DatasetError, match=f"{data / 'config.json'} is missing: .*rebuild"):

@@ -85,6 +85,12 @@ class E2VDataset(Dataset):
                 raise ValueError(f"{self.root} stores {stored}px frames; frame_size={frame_size}"
                                  " would need a rebuild with --frame-size")
             self.frame_size = stored
+        elif (self.root / "config.json").exists():  # our layout, its manifest lost
+            raise DatasetError(
+                f"{self.root} has a config.json but no manifest.csv, so it is neither a "
+                "finished e2vlib dataset nor a SynthEVox3D folder; a make-data run that "
+                "stopped early writes its manifest when rerun with the same command (the "
+                "config.json records its settings), or restore manifest.csv")
         else:
             self.layout = "synthevox3d"
             self.items = [(sample_id, category, scan) for sample_id, category, scan, s
