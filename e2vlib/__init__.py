@@ -15,23 +15,23 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,698 lines)::
+Module map (``python tools/module_map.py --write``; 19,748 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
-    cli/                  1130  The command line's parts: python -m e2vlib (__main__) runs them
+    cli/                  1132  The command line's parts: python -m e2vlib (__main__) runs them
       checks.py            274  Checks of command-line values before any work starts
       data_commands.py     159  The dataset commands
       errors.py            124  How the command line fails
       model_commands.py    259  The model commands
-      parser.py            204  The command line's parser
+      parser.py            206  The command line's parser
       study_commands.py     74  The study command
-    data/                 2311  Datasets
+    data/                 2317  Datasets
       build.py             204  Building a dataset
       checks.py            280  A dataset folder is untrusted input
       commands.py           84  The python -m e2vlib make-data command lines that build (or ...
       config.py            215  Build settings
-      dataset.py           275  Reading a dataset
+      dataset.py           281  Reading a dataset
       grey.py              185  Grey video at the event frames' times (make-data --grey-video)
       manifest.py          135  ROOT/manifest.csv
       plan.py              120  Sample planning
@@ -40,7 +40,7 @@ Module map (``python tools/module_map.py --write``; 19,698 lines)::
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     dataset_checks.py       39  Old home of checks (a dataset folder is untrusted input) ...
     events.py              325  Event streams as numpy structured arrays, and their validation
-    experiments/          1713  Experiments
+    experiments/          1723  Experiments
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       geometry_study.py    153  The geometry study
       loader.py            258  A study protocol's splits as model inputs, kept in memory ...
@@ -48,12 +48,12 @@ Module map (``python tools/module_map.py --write``; 19,698 lines)::
       real_study.py        293  Scoring on real meshes
       records.py           166  Recorded study results, read the same way by every lesson
       runner.py            243  Running studies
-      studies.py           208  The studies
+      studies.py           218  The studies
       summary.py           120  A study's results as numbers
     explore.py             246  A dataset explorer
     figures.py             115  The README's pictures, rendered from a dataset and a trained ...
     files.py                97  Crash-safe file writing
-    frames.py              547  Event representations
+    frames.py              559  Event representations
     frames_fast.py         280  Compiled (numba) kernels behind accumulate's default fast path
     geometry.py            393  Geometry baselines without learning
     geometry_study.py       11  The geometry study now lives in geometry_study; this name ...
@@ -63,10 +63,10 @@ Module map (``python tools/module_map.py --write``; 19,698 lines)::
     io.py                  536  Read and write event files, converting every foreign ...
     losses.py              208  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1833  The E2V model
+    model/                1853  The E2V model
       checkpoint.py        351  E2V checkpoint files
-      config.py            287  E2V's configuration
-      decoder.py           166  E2V's bridge and decoder
+      config.py            303  E2V's configuration
+      decoder.py           170  E2V's bridge and decoder
       encoders.py          273  E2V's encoders
       integrity.py         150  Is a checkpoint intact
       networks.py          292  The E2V network
