@@ -12,7 +12,8 @@ mean predicted occupancy.
 Usage::
 
     python experiments/collapse_probe.py STUDY CONFIG SEED [--epochs 3] [--recipe tiny_step]
-        [--preset tiny_norm] [--out experiments/records/collapse_probe.json]
+        [--preset tiny_norm] [--loss bce_dice] [--head-scale 0.1]
+        [--out experiments/records/collapse_probe.json]
 
 Each (study, config, seed, recipe, epochs) is one record of the output file, written
 atomically when the run ends; a record already there is skipped. Records carry the recipe's
@@ -40,7 +41,8 @@ from e2vlib.train import fit
 
 def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
           head_prior: bool = False, leaky_bridge: bool = False,
-          preset: str | None = None) -> dict:
+          preset: str | None = None, loss: str | None = None,
+          head_scale: float | None = None, head_p: float | None = None) -> dict:
     """The per-step trace of the first ``epochs`` epochs of one study run (with another
     recipe or model preset when given)."""
     spec = experiments.STUDIES[study]
@@ -49,6 +51,8 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
         protocol["recipe"] = recipe
     if preset is not None:
         protocol["preset"] = preset
+    if loss is not None:
+        protocol["loss"] = loss
     torch.set_num_threads(int(protocol["threads"]))
     train = experiments.load_split(protocol, "train")
     val = experiments.load_split(protocol, "val")
@@ -62,6 +66,13 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
         occupancy = float(train.voxels.float().mean())
         with torch.no_grad():
             model.head.weight.mul_(0.01)
+            model.head.bias.fill_(float(np.log(occupancy / (1 - occupancy))))
+    overrides = {}
+    if head_scale is not None:  # the output prior with another scale of the head's weights
+        overrides["output_prior"] = False
+        occupancy = float(train.voxels.float().mean()) if head_p is None else head_p
+        with torch.no_grad():
+            model.head.weight.mul_(head_scale)
             model.head.bias.fill_(float(np.log(occupancy / (1 - occupancy))))
     if leaky_bridge:
         model.bridge.fc[3] = torch.nn.LeakyReLU(0.01, inplace=True)
@@ -103,7 +114,7 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
         try:
             fit(model, train, val, tmp, recipe=protocol["recipe"],
                 epochs=experiments.epochs_of(protocol), seed=seed, loss=protocol["loss"],
-                progress=False, on_step=on_step, on_epoch=on_epoch)
+                progress=False, on_step=on_step, on_epoch=on_epoch, **overrides)
         except _Enough:
             pass
     from dataclasses import asdict
@@ -113,6 +124,8 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
     return {"study": study, "config": config, "seed": seed, "recipe": protocol["recipe"],
             "recipe_fields": asdict(get_recipe(protocol["recipe"])),
             "head_prior": head_prior, "leaky_bridge": leaky_bridge, "preset": protocol["preset"],
+            "loss": protocol["loss"], "head_scale": head_scale,
+            "head_p": head_p,
             "epochs_watched": epochs, "protocol": protocol,
             "history": history, "steps": steps,
             "seconds": round(time.perf_counter() - started, 1),
@@ -135,6 +148,13 @@ def main() -> None:
     parser.add_argument("--leaky-bridge", action="store_true",
                         help="LeakyReLU(0.01) instead of ReLU after the bridge")
     parser.add_argument("--preset", default=None, help="another model preset than the study's")
+    parser.add_argument("--loss", default=None, help="another loss than the study's")
+    parser.add_argument("--head-scale", type=float, default=None,
+                        help="start at the labels' occupancy with the head's weights scaled "
+                             "by this (the recipe's output_prior scales them by 0.01)")
+    parser.add_argument("--head-p", type=float, default=None,
+                        help="with --head-scale: start at this probability instead of the "
+                             "labels' occupancy")
     parser.add_argument("--out", default="experiments/records/collapse_probe.json")
     args = parser.parse_args()
     out = Path(args.out)
@@ -143,12 +163,16 @@ def main() -> None:
     key = (f"{args.study}/{args.config}/seed{args.seed}/{recipe}/{args.epochs}ep"
            + ("/head_prior" if args.head_prior else "")
            + ("/leaky_bridge" if args.leaky_bridge else "")
-           + (f"/{args.preset}" if args.preset else ""))
+           + (f"/{args.preset}" if args.preset else "")
+           + (f"/{args.loss}" if args.loss else "")
+           + (f"/head_scale{args.head_scale:g}" if args.head_scale is not None else "")
+           + (f"/head_p{args.head_p:g}" if args.head_p is not None else ""))
     if key in records:
         print(f"{key}: already recorded")
         return
     record = probe(args.study, args.config, args.seed, args.epochs, args.recipe,
-                   args.head_prior, args.leaky_bridge, args.preset)
+                   args.head_prior, args.leaky_bridge, args.preset, args.loss,
+                   args.head_scale, args.head_p)
     records[key] = record
     with atomic_path(out) as tmp:
         tmp.write_text(json.dumps(records, indent=1) + "\n")
