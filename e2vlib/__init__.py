@@ -15,7 +15,7 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,748 lines)::
+Module map (``python tools/module_map.py --write``; 19,740 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
@@ -40,7 +40,7 @@ Module map (``python tools/module_map.py --write``; 19,748 lines)::
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     dataset_checks.py       39  Old home of checks (a dataset folder is untrusted input) ...
     events.py              325  Event streams as numpy structured arrays, and their validation
-    experiments/          1723  Experiments
+    experiments/          1713  Experiments
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       geometry_study.py    153  The geometry study
       loader.py            258  A study protocol's splits as model inputs, kept in memory ...
@@ -48,7 +48,7 @@ Module map (``python tools/module_map.py --write``; 19,748 lines)::
       real_study.py        293  Scoring on real meshes
       records.py           166  Recorded study results, read the same way by every lesson
       runner.py            243  Running studies
-      studies.py           218  The studies
+      studies.py           208  The studies
       summary.py           120  A study's results as numbers
     explore.py             246  A dataset explorer
     figures.py             115  The README's pictures, rendered from a dataset and a trained ...
@@ -63,9 +63,9 @@ Module map (``python tools/module_map.py --write``; 19,748 lines)::
     io.py                  536  Read and write event files, converting every foreign ...
     losses.py              208  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1853  The E2V model
+    model/                1855  The E2V model
       checkpoint.py        351  E2V checkpoint files
-      config.py            303  E2V's configuration
+      config.py            305  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          273  E2V's encoders
       integrity.py         150  Is a checkpoint intact

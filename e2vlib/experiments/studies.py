@@ -128,28 +128,18 @@ STUDIES: dict[str, Study] = {
         {"128px": {"frame_size": 128}, "cnn_gru": {"preset": "tiny_gru"}},
         base={"recipe": "tiny_step"},
     ),
-    "stability_norm": Study(
-        "stability_norm",
-        "The output prior of recipe tiny_step stopped one kind of collapse but not another: "
-        "at 128 px the fully connected bridge's output can grow until the decoder learns "
-        "nothing (time's 128px seed 2). With the bridge's seed volume normalised "
-        "(presets tiny_norm, tiny_gru_norm), do 8 seeds of each train without a collapse?",
-        {"128px": {"frame_size": 128, "preset": "tiny_norm"},
-         "cnn_gru": {"preset": "tiny_gru_norm"}},
-        base={"recipe": "tiny_step"},
-    ),
     "capstone": Study(
         "capstone",
         "Lessons 09-12 found BCE + Dice, 128 px frames and 200 x 2.5 ms frames ahead of the "
-        "base recipe, one at a time: does each hold with the per-step schedule and the "
-        "normalised bridge, does a longer budget help, and how far do they carry together?",
+        "base recipe, one at a time: does each hold with the per-step schedule, does a "
+        "longer budget help, and how far do they carry together?",
         {"base": {},
          "bce_dice": {"loss": "bce_dice"},
          "128px": {"frame_size": 128},
          "200x2.5ms": {"n_frames": 200, "dt_us": 2_500},
          "30_epochs": {"epochs": 30},
          "bce_dice_30_epochs": {"loss": "bce_dice", "epochs": 30}},
-        base={"recipe": "tiny_step", "preset": "tiny_norm"},
+        base={"recipe": "tiny_step"},
     ),
 }
 """The studies of issues 12, 13, 15 and 25, by name."""

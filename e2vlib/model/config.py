@@ -72,9 +72,9 @@ class E2VConfig:
       to a ``hidden_channels x seed_size^3`` seed, then trilinear resize: global context).
     - ``bridge_norm``: with ``bridge="fc"``, normalise the seed volume (``norm``, per
       channel) before its ReLU. The fully connected layer sums its whole input, so under
-      AdamW its output moves in proportion to the input's size (1,024 values at 64 px,
-      4,096 at 128 px); unnormalised, it can grow until the decoder cannot learn
-      (experiments/collapse_probe.py). Stored as False with the other bridges.
+      AdamW its output can move in proportion to the input's size (1,024 values at 64 px,
+      4,096 at 128 px); normalised, its scale stays put (experiments/collapse_probe.py).
+      Stored as False with the other bridges.
     - ``decoder_widths``: channels of the decoder's down blocks (each halves the grid).
     - ``bottleneck``: ``"fc"`` (two linear layers through ``bottleneck_features``, as in
       Pix2Vox++), ``"conv"`` (one 3x3x3 conv) or ``"none"``.
@@ -295,9 +295,11 @@ PRESETS["tiny2d"] = replace(PRESETS["tiny"], encoder="frames2d")
 # 2.73 M parameters, 0.97x tiny's.
 PRESETS["tiny_gru"] = replace(PRESETS["tiny"], encoder="frames2d_gru", gru_hidden=256,
                               gru_pool=1)
-# "tiny" and "tiny_gru" with the bridge's seed volume normalised (bridge_norm): the fix of
-# the collapses some seeds of "tiny" show at 128 px (experiments/collapse_probe.py; the
-# stability_norm study). 8 more parameters: the norm's scale and shift of 4 channels.
+# "tiny" and "tiny_gru" with the bridge's seed volume normalised (bridge_norm). At 128 px the
+# unnormalised seed volume of time's 128px seed 2 grows 65-fold in 40 steps (its spread across
+# samples 0.22 -> 14); normalised it stays at 0.1-0.4, yet that seed still predicts no voxel
+# above 0.3 in its first 3 epochs (experiments/records/collapse_probe.json), so no study uses
+# these presets yet. 8 more parameters: the norm's scale and shift of 4 channels.
 PRESETS["tiny_norm"] = replace(PRESETS["tiny"], bridge_norm=True)
 PRESETS["tiny_gru_norm"] = replace(PRESETS["tiny_gru"], bridge_norm=True)
 """Named configurations for :func:`build_e2v`."""
