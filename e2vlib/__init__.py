@@ -15,7 +15,7 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,740 lines)::
+Module map (``python tools/module_map.py --write``; 19,771 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
@@ -40,7 +40,7 @@ Module map (``python tools/module_map.py --write``; 19,740 lines)::
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     dataset_checks.py       39  Old home of checks (a dataset folder is untrusted input) ...
     events.py              325  Event streams as numpy structured arrays, and their validation
-    experiments/          1713  Experiments
+    experiments/          1725  Experiments
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       geometry_study.py    153  The geometry study
       loader.py            258  A study protocol's splits as model inputs, kept in memory ...
@@ -48,7 +48,7 @@ Module map (``python tools/module_map.py --write``; 19,740 lines)::
       real_study.py        293  Scoring on real meshes
       records.py           166  Recorded study results, read the same way by every lesson
       runner.py            243  Running studies
-      studies.py           208  The studies
+      studies.py           220  The studies
       summary.py           120  A study's results as numbers
     explore.py             246  A dataset explorer
     figures.py             115  The README's pictures, rendered from a dataset and a trained ...
@@ -63,9 +63,9 @@ Module map (``python tools/module_map.py --write``; 19,740 lines)::
     io.py                  536  Read and write event files, converting every foreign ...
     losses.py              208  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1855  The E2V model
+    model/                1856  The E2V model
       checkpoint.py        351  E2V checkpoint files
-      config.py            305  E2V's configuration
+      config.py            306  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          273  E2V's encoders
       integrity.py         150  Is a checkpoint intact
@@ -98,11 +98,11 @@ Module map (``python tools/module_map.py --write``; 19,740 lines)::
       vehicles.py          394  Procedural category builders
     shards.py                8  Old home of shards (joining sharded builds); its names live ...
     simulate.py            586  Turn a video into events with the ESIM model of an event camera
-    train/                 990  Training and evaluation of E2V
+    train/                1008  Training and evaluation of E2V
       devices.py           126  Where and how fast training runs
       evaluation.py        158  Predictions and the Pix2Vox evaluation protocol
-      loop.py              420  The training loop, fit, and what resuming it checks
-      recipes.py           193  Training recipes (optimizer settings and epochs) and their ...
+      loop.py              421  The training loop, fit, and what resuming it checks
+      recipes.py           210  Training recipes (optimizer settings and epochs) and their ...
     viz/                  1331  Pictures of events, frames, voxels and meshes
       animation.py          70  Matplotlib animations of frame stacks, shown as ...
       export.py            139  A predicted grid as files other tools read

@@ -341,13 +341,16 @@ def test_cache_commands_build_data_smalls_objects_with_the_stated_changes():
         assert args.workers == experiments.BUILD_WORKERS
 
 
-def test_the_stability_and_capstone_studies_share_their_128px_runs():
-    stability, capstone = STUDIES["stability"], STUDIES["capstone"]
+def test_the_stability_norm_even_and_capstone_studies_share_their_128px_runs():
+    stability, capstone = STUDIES["stability_norm_even"], STUDIES["capstone"]
     for study in (stability, capstone):
-        assert study.protocol()["recipe"] == "tiny_step"
+        assert study.protocol()["recipe"] == "tiny_step_even"
     same = [canonical_protocol({**s.protocol(), **s.configs["128px"]})
             for s in (stability, capstone)]
     assert same[0] == same[1] and same[0]["frame_size"] == 128
+    assert same[0]["preset"] == "tiny_norm"
+    # the first stability study keeps the recipe its records were made with
+    assert STUDIES["stability"].protocol()["recipe"] == "tiny_step"
     # the base recipe of every earlier study is untouched: its records stay comparable
     assert STUDIES["time"].protocol()["recipe"] == "tiny"
     assert capstone.configs["bce_dice"] == {"loss": "bce_dice"}

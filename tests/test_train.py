@@ -1,6 +1,7 @@
 import json
 import math
 import os
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -246,6 +247,25 @@ def test_output_prior_starts_the_predictions_at_the_labels_occupancy(tmp_path):
     assert torch.sigmoid(model.head.bias).item() == pytest.approx(occupancy, abs=1e-4)
 
 
+def test_output_prior_p_starts_the_predictions_at_even_odds(tmp_path):
+    from e2vlib.train import RECIPES
+
+    data = toy_set(8)
+    r = Recipe(lr=1e-9, batch_size=4, epochs=1, output_prior=True, output_prior_p=0.5)
+    model = small_model()
+    fit(model, data, toy_set(4, 1), tmp_path, recipe=r, progress=False)
+    assert model.head.bias.item() == pytest.approx(0.0, abs=1e-6)  # logit(0.5) = 0
+    assert predict(model, data.frames).mean().item() == pytest.approx(0.5, abs=0.01)
+    even = RECIPES["tiny_step_even"]
+    assert even.output_prior_p == 0.5
+    assert replace(even, output_prior_p=None) == RECIPES["tiny_step"]
+    for bad in (0.0, 1.0, float("nan"), "0.5"):
+        with pytest.raises(ValueError, match="output_prior_p must be None or a probability"):
+            Recipe(lr=1e-3, batch_size=4, epochs=1, output_prior=True, output_prior_p=bad)
+    with pytest.raises(ValueError, match="with output_prior=True"):
+        Recipe(lr=1e-3, batch_size=4, epochs=1, output_prior_p=0.5)
+
+
 def test_a_per_step_run_resumed_after_an_interruption_is_exact(tmp_path):
     r = Recipe(lr=5e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
     straight = small_model()
@@ -276,7 +296,7 @@ def test_a_per_step_run_resumed_after_an_interruption_is_exact(tmp_path):
     ({"lr": -1e-3}, "got -0.001"),
     ({"lr": math.nan}, "got nan"),
     ({"recipe": "bogus"},
-     "unknown recipe 'bogus'; choose one of \\['paper', 'tiny', 'tiny_step'\\]"),
+     "unknown recipe 'bogus'; choose one of \\['paper', 'tiny', 'tiny_step', 'tiny_step_even'\\]"),
     ({"lrr": 1e-3}, "unknown recipe fields \\['lrr'\\]"),
     ({"loss": "dice"}, "unknown loss 'dice'; choose one of bce, focal, bce_dice"),
     ({"precision": "fp16"}, "precision must be one of fp32, bf16, got 'fp16'"),

@@ -295,11 +295,12 @@ PRESETS["tiny2d"] = replace(PRESETS["tiny"], encoder="frames2d")
 # 2.73 M parameters, 0.97x tiny's.
 PRESETS["tiny_gru"] = replace(PRESETS["tiny"], encoder="frames2d_gru", gru_hidden=256,
                               gru_pool=1)
-# "tiny" and "tiny_gru" with the bridge's seed volume normalised (bridge_norm). At 128 px the
-# unnormalised seed volume of time's 128px seed 2 grows 65-fold in 40 steps (its spread across
-# samples 0.22 -> 14); normalised it stays at 0.1-0.4, yet that seed still predicts no voxel
-# above 0.3 in its first 3 epochs (experiments/records/collapse_probe.json), so no study uses
-# these presets yet. 8 more parameters: the norm's scale and shift of 4 channels.
+# "tiny" and "tiny_gru" with the bridge's seed volume normalised (bridge_norm), so that its
+# units cannot all die: under recipe "tiny" the first steps killed every bridge unit of some
+# seeds (time's 128px seed 1, encoder's cnn_gru seed 1) and the network learned one grid for
+# every input. With the output started at even odds (recipe "tiny_step_even") these presets
+# are the stability_norm_even study's (experiments/records/collapse_probe.json).
+# 8 more parameters: the norm's scale and shift of 4 channels.
 PRESETS["tiny_norm"] = replace(PRESETS["tiny"], bridge_norm=True)
 PRESETS["tiny_gru_norm"] = replace(PRESETS["tiny_gru"], bridge_norm=True)
 """Named configurations for :func:`build_e2v`."""

@@ -223,7 +223,8 @@ def fit(
     # seed; a resumed run restores the generator's state from last.pt instead.
     torch.manual_seed(seed)
     if recipe.output_prior and not resume:
-        init_output_prior(model, float(train_set.voxels.float().mean()))
+        init_output_prior(model, float(train_set.voxels.float().mean())
+                          if recipe.output_prior_p is None else recipe.output_prior_p)
     model.to(device)
     if precision == "bf16" and not bf16_is_fast(device):
         raise ValueError(f"precision='bf16' on {device}: this device has no fast bfloat16 "
