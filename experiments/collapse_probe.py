@@ -36,7 +36,7 @@ import torch
 from e2vlib import experiments
 from e2vlib.files import atomic_path
 from e2vlib.model import build_e2v
-from e2vlib.train import fit
+from e2vlib.train import fit, init_output_prior
 
 
 def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
@@ -62,18 +62,13 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
     if head_prior and get_recipe(protocol["recipe"]).output_prior:
         raise SystemExit(f"recipe {protocol['recipe']} already starts at the labels' "
                          "occupancy (output_prior); drop --head-prior")
+    occupancy = float(train.voxels.float().mean())
     if head_prior:  # start at the training labels' mean occupancy, not at p = 0.5 + features
-        occupancy = float(train.voxels.float().mean())
-        with torch.no_grad():
-            model.head.weight.mul_(0.01)
-            model.head.bias.fill_(float(np.log(occupancy / (1 - occupancy))))
+        init_output_prior(model, occupancy)
     overrides = {}
     if head_scale is not None:  # the output prior with another scale of the head's weights
         overrides["output_prior"] = False
-        occupancy = float(train.voxels.float().mean()) if head_p is None else head_p
-        with torch.no_grad():
-            model.head.weight.mul_(head_scale)
-            model.head.bias.fill_(float(np.log(occupancy / (1 - occupancy))))
+        init_output_prior(model, occupancy if head_p is None else head_p, head_scale)
     if leaky_bridge:
         model.bridge.fc[3] = torch.nn.LeakyReLU(0.01, inplace=True)
     seen: dict[str, torch.Tensor] = {}

@@ -240,6 +240,10 @@ def test_output_prior_starts_the_predictions_at_the_labels_occupancy(tmp_path):
     assert after.std().item() < 0.01  # the same everywhere: weights scaled by 0.01
     with pytest.raises(ValueError, match="occupancy must be in \\(0, 1\\), got 0.0"):
         init_output_prior(small_model(), 0.0)
+    unscaled, reference = small_model(), small_model()
+    init_output_prior(unscaled, 0.5, weight_scale=1.0)  # the bias alone: weights kept
+    assert torch.equal(unscaled.head.weight, reference.head.weight)
+    assert unscaled.head.bias.item() == 0.0
     # fit applies it before the first step with a recipe that asks for it
     r = Recipe(lr=1e-9, batch_size=4, epochs=1, output_prior=True)
     model = small_model()

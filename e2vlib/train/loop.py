@@ -43,10 +43,10 @@ LEGACY_LOSS = "bce"
 """The loss of checkpoints written before the loss was recorded: fit only had BCE then."""
 
 
-def init_output_prior(model: E2V, occupancy: float) -> None:
+def init_output_prior(model: E2V, occupancy: float, weight_scale: float = 0.01) -> None:
     """Start ``model``'s output layer at occupancy probability ``occupancy`` (in (0, 1)):
-    bias ``log(p / (1 - p))``, weights scaled by 0.01, so the first predictions are about
-    ``occupancy`` everywhere instead of about 0.5 plus whatever the features add.
+    bias ``log(p / (1 - p))``, weights scaled by ``weight_scale``, so the first predictions
+    are about ``occupancy`` everywhere instead of about 0.5 plus whatever the features add.
 
     Without it the first steps of BCE see mostly empty voxels predicted as occupied (mean
     probability 0.78-0.85 for the tiny presets against data_small's occupancy of 0.076) and push
@@ -66,7 +66,7 @@ def init_output_prior(model: E2V, occupancy: float) -> None:
         raise ValueError(f"occupancy must be in (0, 1), got {occupancy!r}: the training "
                          "labels are all empty or all full")
     with torch.no_grad():
-        model.head.weight.mul_(0.01)
+        model.head.weight.mul_(weight_scale)
         model.head.bias.fill_(float(np.log(occupancy / (1 - occupancy))))
 
 
