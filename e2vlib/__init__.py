@@ -15,7 +15,7 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,771 lines)::
+Module map (``python tools/module_map.py --write``; 19,773 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
@@ -98,11 +98,11 @@ Module map (``python tools/module_map.py --write``; 19,771 lines)::
       vehicles.py          394  Procedural category builders
     shards.py                8  Old home of shards (joining sharded builds); its names live ...
     simulate.py            586  Turn a video into events with the ESIM model of an event camera
-    train/                1008  Training and evaluation of E2V
+    train/                1010  Training and evaluation of E2V
       devices.py           126  Where and how fast training runs
       evaluation.py        158  Predictions and the Pix2Vox evaluation protocol
       loop.py              421  The training loop, fit, and what resuming it checks
-      recipes.py           210  Training recipes (optimizer settings and epochs) and their ...
+      recipes.py           212  Training recipes (optimizer settings and epochs) and their ...
     viz/                  1331  Pictures of events, frames, voxels and meshes
       animation.py          70  Matplotlib animations of frame stacks, shown as ...
       export.py            139  A predicted grid as files other tools read

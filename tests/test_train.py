@@ -268,6 +268,9 @@ def test_output_prior_p_starts_the_predictions_at_even_odds(tmp_path):
             Recipe(lr=1e-3, batch_size=4, epochs=1, output_prior=True, output_prior_p=bad)
     with pytest.raises(ValueError, match="with output_prior=True"):
         Recipe(lr=1e-3, batch_size=4, epochs=1, output_prior_p=0.5)
+    numpy_p = Recipe(lr=1e-3, batch_size=4, epochs=1, output_prior=True,
+                     output_prior_p=np.float64(0.25)).output_prior_p
+    assert type(numpy_p) is float and numpy_p == 0.25  # safe for weights_only checkpoints
 
 
 def test_a_per_step_run_resumed_after_an_interruption_is_exact(tmp_path):

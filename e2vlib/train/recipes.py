@@ -87,6 +87,8 @@ class Recipe:
         for name, kind in (("batch_size", int), ("epochs", int), ("lr", float),
                            ("weight_decay", float), ("warmup_steps", int)):
             object.__setattr__(self, name, kind(getattr(self, name)))
+        if self.output_prior_p is not None:  # a plain float: checkpoints store the recipe
+            object.__setattr__(self, "output_prior_p", float(self.output_prior_p))
 
 
 def _is_number(value: object) -> bool:
