@@ -371,3 +371,26 @@ def test_a_run_below_the_collapse_line_is_called_collapsed():
                        for run in load_results(study)["runs"] if is_collapsed(run))
     assert collapsed == ["encoder/cnn_gru/1", "time/128px/1"]
     assert COLLAPSE_IOU > 0.126  # a grid that ignores the input (the mean shape) is below it
+
+
+def test_kept_checkpoints_are_the_recorded_models(tiny_events_dataset, tmp_path):
+    """--keep-checkpoints keeps each run's best model; scored again, it gives the record's
+    test IoU@0.3, and the command that reproduces the study names the folder."""
+    from e2vlib.experiments.loader import load_split
+    from e2vlib.metrics import score_split
+    from e2vlib.model import load_checkpoint
+    from e2vlib.train import predict
+
+    overrides = _overrides(tiny_events_dataset)
+    kept = tmp_path / "kept"
+    path = run_study("loss", ["bce"], seeds=[3], out=tmp_path, quick=True, progress=False,
+                     base_overrides=overrides, checkpoints=kept)
+    results = json.loads(path.read_text())
+    run = results["runs"][0]
+    assert run["checkpoint"] == (kept / "loss" / "bce_seed3.pt").as_posix()
+    assert results["command"].endswith(f"--seeds 3 --quick --keep-checkpoints {kept}")
+    assert [p.name for p in (kept / "loss").iterdir()] == ["bce_seed3.pt"]  # no temp left
+    test = load_split({**results["protocol"], **run["params"]}, "test", False)
+    probabilities = predict(load_checkpoint(run["checkpoint"]), test.frames, "cpu")
+    again = score_split(probabilities, test.voxels, test.categories)["overall"]["iou@0.3"]
+    assert abs(again - run["metrics"]["iou@0.3"]) < 1e-9

@@ -202,5 +202,8 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
     p.add_argument("--no-reuse", action="store_true",
                    help="train every run, even one whose full protocol and seed another "
                         "study in --out already recorded (default: copy that record)")
+    p.add_argument("--keep-checkpoints", metavar="DIR",
+                   help="keep each trained run's best checkpoint as DIR/STUDY/CONFIG_seedN.pt "
+                        "(default: thrown away)")
     p.set_defaults(func=run_experiment)
     return parser

@@ -38,7 +38,8 @@ def run_experiment(args: argparse.Namespace) -> int:
     out = args.out or (DEFAULT_OUT.parent / "results-quick" if args.quick else DEFAULT_OUT)
     output_folder(str(out), "--out")
     path = run_study(args.study, args.configs, args.seeds, out, device=args.device,
-                     quick=args.quick, reuse=not args.no_reuse)
+                     quick=args.quick, reuse=not args.no_reuse,
+                     checkpoints=args.keep_checkpoints)
     print(f"{path}:")
     print(format_summary(summarize(path)))
     return 0

@@ -43,8 +43,13 @@ def best_threshold(probabilities, voxels, thresholds: Iterable[float] = THRESHOL
 
 
 def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | None = None,
-            progress: bool = False) -> dict:
-    """Train and evaluate one (protocol, seed); return its record (without config name)."""
+            progress: bool = False, keep_checkpoint: Path | None = None) -> dict:
+    """Train and evaluate one (protocol, seed); return its record (without config name).
+
+    ``keep_checkpoint``: where to copy the run's best checkpoint (a ``.pt`` path; written to
+    a temporary file, then renamed), to score it later; by default it is thrown away.
+    """
+    import shutil
     import tempfile
 
     import torch
@@ -70,6 +75,10 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
                       loss=protocol["loss"], progress=progress)
         train_seconds = time.perf_counter() - started
         best = load_checkpoint(Path(tmp) / "best.pt")
+        if keep_checkpoint is not None:
+            Path(keep_checkpoint).parent.mkdir(parents=True, exist_ok=True)
+            with atomic_path(keep_checkpoint) as partial:
+                shutil.copyfile(Path(tmp) / "best.pt", partial)
     val_probabilities = predict(best, val.frames, device)
     threshold = best_threshold(val_probabilities, val.voxels)
     # the test predictions once, scored as evaluate() scores them
@@ -130,7 +139,7 @@ def _write(path: Path, results: dict) -> None:
 
 
 def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int],
-                 quick: bool, reuse: bool = True) -> str:
+                 quick: bool, reuse: bool = True, checkpoints: str | None = None) -> str:
     """The command that reproduces (or resumes) a study."""
     parts = ["python -m e2vlib experiment", study]
     if configs:
@@ -140,6 +149,8 @@ def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int]
         parts.append("--quick")
     if not reuse:
         parts.append("--no-reuse")
+    if checkpoints:
+        parts += ["--keep-checkpoints", str(checkpoints)]
     return " ".join(parts)
 
 
@@ -180,7 +191,8 @@ def find_same_run(out: Path, protocol: dict, seed: int, device: str,
 def run_study(study: str, configs: Sequence[str] | None = None,
               seeds: Sequence[int] = (0, 1, 2), out: str | os.PathLike = DEFAULT_OUT,
               device: str = "auto", quick: bool = False, progress: bool = True,
-              base_overrides: dict | None = None, reuse: bool = True) -> Path:
+              base_overrides: dict | None = None, reuse: bool = True,
+              checkpoints: str | os.PathLike | None = None) -> Path:
     """Run every (config, seed) of ``study`` not yet in ``OUT/STUDY.json``; return the path.
 
     ``base_overrides`` changes the shared protocol (for example ``{"data": ...}`` in tests);
@@ -209,7 +221,8 @@ def run_study(study: str, configs: Sequence[str] | None = None,
     if results["protocol"] != protocol:
         raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
                          f"use another --out folder to run this one ({protocol})")
-    results["command"] = command_line(study, configs, seeds, quick, reuse)
+    results["command"] = command_line(study, configs, seeds, quick, reuse,
+                                      str(checkpoints) if checkpoints else None)
     commands = results.setdefault("commands", [])  # every invocation that added runs, in order
     if results["command"] not in commands:
         commands.append(results["command"])
@@ -226,8 +239,12 @@ def run_study(study: str, configs: Sequence[str] | None = None,
             record = find_same_run(path.parent, {**protocol, **params}, int(seed),
                                    str(resolve_device(device)), exclude=path)
         if record is None:
+            kept = (Path(checkpoints) / study / f"{name}_seed{int(seed)}.pt"
+                    if checkpoints else None)
             record = run_one({**protocol, **params}, int(seed), device=device,
-                             progress=progress)
+                             progress=progress, keep_checkpoint=kept)
+            if kept is not None:
+                record["checkpoint"] = kept.as_posix()
         else:  # records made before runs noted their size get it from the protocol
             record = {**run_size({**protocol, **params}), **record}
         results["runs"].append({"config": name, "params": params, **record})
