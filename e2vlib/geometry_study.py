@@ -4,8 +4,9 @@ importable (``from e2vlib.geometry_study import run_geometry_study``)."""
 from e2vlib.experiments.geometry_study import (
     METHODS,
     QUESTION,
+    add_checkpoints,
     run_geometry_study,
     summarize_geometry,
 )
 
-__all__ = ["METHODS", "QUESTION", "run_geometry_study", "summarize_geometry"]
+__all__ = ["METHODS", "QUESTION", "add_checkpoints", "run_geometry_study", "summarize_geometry"]

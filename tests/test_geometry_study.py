@@ -53,3 +53,39 @@ def test_another_protocol_and_missing_events_are_refused(tiny_data, tmp_path):
     with pytest.raises(FileNotFoundError, match="events cache must hold the raw events"):
         run_geometry_study(tmp_path / "other", data=tiny_data, events=tmp_path / "none",
                            progress=False)
+
+
+def test_added_checkpoints_score_like_learned_and_keep_the_carving(tiny_data, tmp_path):
+    """A second name for the same weights scores exactly what ``learned`` scored; the oracle
+    of a category is its mean training label; carving is not redone; clashes are refused."""
+    import shutil
+
+    from e2vlib.geometry import score_occupancy
+    from e2vlib.geometry_study import add_checkpoints
+    from e2vlib.train import category_mean_shapes, preload
+
+    path = run_geometry_study(tmp_path, data=tiny_data, events=tiny_data, n_points=256,
+                              progress=False)
+    runs = json.loads(path.read_text())["runs"]
+    hull_before = {r["id"]: r["scores"]["visual_hull"] for r in runs}
+    same = tmp_path / "same.pt"
+    shutil.copyfile(tiny_data / "checkpoints" / "tiny.pt", same)
+    add_checkpoints(path, {"again": str(same)}, data=tiny_data, n_points=256)
+    results = json.loads(path.read_text())
+    oracle = category_mean_shapes(preload(E2VDataset(tiny_data, "train"), progress=False))
+    test = E2VDataset(tiny_data, "test")
+    for run in results["runs"]:
+        scores = run["scores"]
+        assert scores["again"]["iou@0.3"] == scores["learned"]["iou@0.3"]
+        assert scores["visual_hull"] == hull_before[run["id"]]
+        label = test[test.ids.index(run["id"])]["voxels"].numpy().astype(bool)
+        expected = score_occupancy(oracle[run["category"]].numpy(), label, 256)["iou@0.3"]
+        assert scores["category_oracle"]["iou@0.3"] == pytest.approx(expected)
+    assert results["checkpoints"]["again"]["path"] == str(same)
+    assert len(results["checkpoints"]["again"]["weights_sha256"]) == 64
+    rows = summarize_geometry(path)
+    assert [r["method"] for r in rows] == [*METHODS, "again", "category_oracle"]
+    with pytest.raises(ValueError, match="already scores a checkpoint named 'again'"):
+        add_checkpoints(path, {"again": str(tmp_path / "other.pt")}, data=tiny_data)
+    with pytest.raises(ValueError, match="method names"):
+        add_checkpoints(path, {"visual_hull": str(same)}, data=tiny_data)

@@ -202,6 +202,9 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
     p.add_argument("--no-reuse", action="store_true",
                    help="train every run, even one whose full protocol and seed another "
                         "study in --out already recorded (default: copy that record)")
+    p.add_argument("--checkpoint", action="append", metavar="NAME=PATH",
+                   help="geometry only: one more learned model to score on the recorded "
+                        "objects (repeatable), beside tiny.pt")
     p.add_argument("--keep-checkpoints", metavar="DIR",
                    help="keep each trained run's best checkpoint as DIR/STUDY/CONFIG_seedN.pt "
                         "(default: thrown away)")

@@ -7,6 +7,7 @@ Each run appends one record to ``OUT/STUDY.json`` (:mod:`e2vlib.experiments`); l
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from e2vlib.cli.checks import check_device, output_folder
 from e2vlib.cli.errors import UsageError
@@ -28,6 +29,9 @@ def run_experiment(args: argparse.Namespace) -> int:
 
     if args.study == "geometry":
         return run_geometry_study(args)
+    if args.checkpoint:
+        raise UsageError("--checkpoint is for the geometry study; a training study keeps its "
+                         "models with --keep-checkpoints DIR")
     if args.study not in STUDIES:
         raise UsageError(f"unknown study {args.study!r}; choose one of {', '.join(STUDIES)}")
     unknown = [c for c in args.configs or () if c not in STUDIES[args.study].configs]
@@ -64,9 +68,17 @@ training); run `python -m e2vlib experiment geometry`
     if args.configs or args.quick:
         raise UsageError("the geometry study has no configs and no quick mode (no training); "
                          "run `python -m e2vlib experiment geometry`")
+    checkpoints = {}
+    for item in args.checkpoint or ():
+        name, sep, ckpt = item.partition("=")
+        if not sep or not name or not ckpt:
+            raise UsageError(f"--checkpoint must look like NAME=PATH, got {item!r}")
+        if not Path(ckpt).is_file():
+            raise UsageError(f"--checkpoint {item}: no file {ckpt}")
+        checkpoints[name] = ckpt
     out = args.out or DEFAULT_OUT
     output_folder(str(out), "--out")
-    path = run_geometry_study(out)
+    path = run_geometry_study(out, checkpoints=checkpoints)
     print(f"{path}:")
     for row in summarize_geometry(path):
         low, high = row["ci95"]

@@ -9,6 +9,9 @@ For every test object of data_small (known camera poses, no training) it scores
   and :func:`e2vlib.geometry.fill_solid`;
 * ``learned``: the shipped checkpoint ``data_small/checkpoints/tiny.pt`` on the stored frames;
 * ``mean_shape``: the mean training label, the baseline of lessons 06-07;
+* more checkpoints by name (``--checkpoint best=data_small/checkpoints/best.pt``), each also
+  at its validation-picked threshold, and ``category_oracle`` (the mean training label of the
+  object's own category) with them: added to the recorded objects without carving again;
 
 all with :func:`e2vlib.geometry.score_occupancy` (the learned model's metrics). One record
 per object, appended to ``OUT/geometry.json`` atomically; recorded objects are skipped, so
@@ -20,6 +23,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +33,7 @@ from e2vlib.experiments.provenance import git_commit
 from e2vlib.files import atomic_path
 
 METHODS = ("visual_hull", "events_carving", "learned", "mean_shape")
-"""The rows of the study, in table order."""
+"""The rows of the study, in table order (added checkpoints and ``category_oracle`` follow)."""
 
 QUESTION = ("The paper compares E2V with image-based methods only across papers (Table III). "
             "With known camera poses and no learning, how far do silhouettes (a visual hull of "
@@ -84,10 +88,13 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
                        data: str | os.PathLike = "data_small",
                        events: str | os.PathLike = "cache/events_small",
                        limit_per_category: int | None = None, n_points: int = 8192,
-                       progress: bool = True) -> Path:
+                       progress: bool = True,
+                       checkpoints: Mapping[str, str] | None = None) -> Path:
     """Score every method on every test object not yet in ``OUT/geometry.json``; return it.
 
     ``limit_per_category`` keeps only the first objects of each category (quick checks).
+    ``checkpoints`` (``{name: path}``) adds learned models scored on the recorded objects
+    (see :func:`add_checkpoints`).
     """
     import torch
     from tqdm.auto import tqdm
@@ -134,6 +141,77 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp:
             tmp.write_text(json.dumps(results, indent=1) + "\n")
+    if checkpoints:
+        add_checkpoints(path, checkpoints, data, n_points)
+    return path
+
+
+def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str],
+                    data: str | os.PathLike = "data_small", n_points: int = 8192) -> Path:
+    """Score each checkpoint (``{name: path}``) and the per-category oracle on every object
+    recorded in ``path`` (a geometry results file) that lacks them; return ``path``.
+
+    A checkpoint is scored like ``learned`` plus ``iou@val_threshold`` at its threshold
+    (recorded in the checkpoint, or picked on the validation split); the file notes each
+    one's path, weights digest and threshold under ``"checkpoints"``. A name that is a
+    method of the study, or already recorded from another path, is refused.
+    """
+    import torch
+
+    from e2vlib.data import E2VDataset
+    from e2vlib.experiments.real_study import checkpoint_predictions
+    from e2vlib.geometry import score_occupancy
+    from e2vlib.metrics import iou
+    from e2vlib.model import DIGEST_KEY
+    from e2vlib.train import category_mean_shapes, preload
+
+    path, data = Path(path), Path(data)
+    results = json.loads(path.read_text())
+    clash = sorted(set(checkpoints) & {*METHODS, "category_oracle"})
+    if clash:
+        raise ValueError(f"checkpoint names {clash} are method names; choose others")
+    known = results.setdefault("checkpoints", {})
+    for name, ckpt in checkpoints.items():
+        if name in known and known[name]["path"] != str(ckpt):
+            raise ValueError(f"{path} already scores a checkpoint named {name!r} from "
+                             f"{known[name]['path']}; give {ckpt} another name")
+    methods = [*checkpoints, "category_oracle"]
+    todo = [r for r in results["runs"] if any(m not in r["scores"] for m in methods)]
+    if not todo:
+        return path
+    test = E2VDataset(data, "test")
+    index = {sid: i for i, sid in enumerate(test.ids)}
+    missing = [r["id"] for r in todo if r["id"] not in index]
+    if missing:
+        raise ValueError(f"{path} records objects that {data}'s test split lacks "
+                         f"({missing[:3]}...); give the --data it was made from")
+    frames = torch.stack([test[index[r["id"]]]["frames"] for r in todo])
+    labels = [test[index[r["id"]]]["voxels"].numpy().astype(bool) for r in todo]
+    val = preload(E2VDataset(data, "val"), progress=False)
+    oracle = {c: v.numpy() for c, v in
+              category_mean_shapes(preload(E2VDataset(data, "train"), progress=False)).items()}
+    for name, ckpt in checkpoints.items():
+        probabilities, threshold, how = checkpoint_predictions(ckpt, frames, val)
+        digest = torch.load(ckpt, map_location="cpu", weights_only=True).get(DIGEST_KEY)
+        known[name] = {"path": str(ckpt), DIGEST_KEY: digest, "val_threshold": threshold,
+                       "val_threshold_from": how}
+        for record, label, p in zip(todo, labels, probabilities, strict=True):
+            if name not in record["scores"]:
+                scores = score_occupancy(p, label, n_points)
+                scores["val_threshold"] = threshold
+                scores["iou@val_threshold"] = float(iou(p, label, threshold))
+                record["scores"][name] = scores
+    for record, label in zip(todo, labels, strict=True):
+        if "category_oracle" not in record["scores"]:
+            record["scores"]["category_oracle"] = score_occupancy(oracle[record["category"]],
+                                                                  label, n_points)
+    commands = results.setdefault("commands", [results.get("command")])
+    command = "python -m e2vlib experiment geometry " + " ".join(
+        f"--checkpoint {name}={ckpt}" for name, ckpt in checkpoints.items())
+    if command not in commands:
+        commands.append(command)
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(results, indent=1) + "\n")
     return path
 
 
@@ -144,7 +222,10 @@ def summarize_geometry(results: dict | str | os.PathLike,
     if not isinstance(results, dict):
         results = json.loads(Path(results).read_text())
     rows = []
-    for method in METHODS:
+    extra = [*results.get("checkpoints", {}), "category_oracle"]
+    for method in [*METHODS, *extra]:
+        if method in extra and not all(method in r["scores"] for r in results["runs"]):
+            continue  # not added (yet)
         values = np.array([r["scores"][method][metric] for r in results["runs"]])
         if len(values) == 0:
             continue

@@ -85,8 +85,10 @@ def _hull(mesh, config) -> np.ndarray:
                                 config.resolution)
 
 
-def _checkpoint_predictions(path: str, frames, val) -> tuple[np.ndarray, float, str]:
-    """``(probabilities (N, 32, 32, 32), threshold, how the threshold was chosen)``."""
+def checkpoint_predictions(path: str, frames, val) -> tuple[np.ndarray, float, str]:
+    """``(probabilities (N, 32, 32, 32), threshold, how the threshold was chosen)`` of the
+    checkpoint at ``path`` on ``frames``; the threshold is the checkpoint's ``val_threshold``
+    or, if it records none, the one picked on ``val`` (a preloaded split)."""
     import torch
 
     from e2vlib.experiments.runner import best_threshold
@@ -187,7 +189,7 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         oracle = {c: v.numpy() for c, v in category_mean_shapes(train).items()}
         learned = {}
         for name, ckpt in checkpoints.items():
-            probabilities, threshold, how = _checkpoint_predictions(ckpt, test.frames, val)
+            probabilities, threshold, how = checkpoint_predictions(ckpt, test.frames, val)
             learned[name] = (probabilities, threshold)
             results["checkpoints"][name] = {"path": str(ckpt), "val_threshold": threshold,
                                             "val_threshold_from": how}
