@@ -15,17 +15,17 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,773 lines)::
+Module map (``python tools/module_map.py --write``; 19,981 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
-    cli/                  1132  The command line's parts: python -m e2vlib (__main__) runs them
+    cli/                  1151  The command line's parts: python -m e2vlib (__main__) runs them
       checks.py            274  Checks of command-line values before any work starts
       data_commands.py     159  The dataset commands
       errors.py            124  How the command line fails
       model_commands.py    259  The model commands
-      parser.py            206  The command line's parser
-      study_commands.py     74  The study command
+      parser.py            212  The command line's parser
+      study_commands.py     87  The study command
     data/                 2317  Datasets
       build.py             204  Building a dataset
       checks.py            280  A dataset folder is untrusted input
@@ -40,14 +40,15 @@ Module map (``python tools/module_map.py --write``; 19,773 lines)::
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     dataset_checks.py       39  Old home of checks (a dataset folder is untrusted input) ...
     events.py              325  Event streams as numpy structured arrays, and their validation
-    experiments/          1725  Experiments
+    experiments/          1913  Experiments
       caches.py             91  The dataset folders the studies read besides data_small, and ...
-      geometry_study.py    153  The geometry study
+      geometry_study.py    234  The geometry study
       loader.py            258  A study protocol's splits as model inputs, kept in memory ...
       provenance.py         58  Where a record was made
-      real_study.py        293  Scoring on real meshes
+      real_study.py        295  Scoring on real meshes
       records.py           166  Recorded study results, read the same way by every lesson
-      runner.py            243  Running studies
+      runner.py            260  Running studies
+      shipping.py           84  Ship one recorded run's model
       studies.py           220  The studies
       summary.py           120  A study's results as numbers
     explore.py             246  A dataset explorer
@@ -56,7 +57,7 @@ Module map (``python tools/module_map.py --write``; 19,773 lines)::
     frames.py              559  Event representations
     frames_fast.py         280  Compiled (numba) kernels behind accumulate's default fast path
     geometry.py            393  Geometry baselines without learning
-    geometry_study.py       11  The geometry study now lives in geometry_study; this name ...
+    geometry_study.py       12  The geometry study now lives in geometry_study; this name ...
     inputs/                555  Model inputs
       representations.py   356  Model inputs from events
       tensors.py           148  A split held in memory

@@ -394,3 +394,22 @@ def test_kept_checkpoints_are_the_recorded_models(tiny_events_dataset, tmp_path)
     probabilities = predict(load_checkpoint(run["checkpoint"]), test.frames, "cpu")
     again = score_split(probabilities, test.voxels, test.categories)["overall"]["iou@0.3"]
     assert abs(again - run["metrics"]["iou@0.3"]) < 1e-9
+    # shipped: the same weights, the run's threshold and where it came from; no optimizer
+    from e2vlib.experiments.shipping import ship_checkpoint
+    from e2vlib.model import read_checkpoint
+
+    shipped = ship_checkpoint("loss", "bce", 3, tmp_path / "best.pt", results_root=tmp_path)
+    state = read_checkpoint(shipped)
+    assert state["val_threshold"] == run["metrics"]["val_threshold"]
+    assert state["provenance"]["test_iou@0.3"] == run["metrics"]["iou@0.3"]
+    assert state["provenance"]["command"].startswith("python -m e2vlib experiment loss "
+                                                     "--configs bce --seeds 3")
+    assert state["data_config"]["frame_size"] == results["protocol"]["frame_size"]
+    assert "optimizer" not in state and "torch_rng" not in state
+    again = predict(load_checkpoint(shipped), test.frames, "cpu")
+    assert torch.equal(again, probabilities)
+    with pytest.raises(ValueError, match="seed 4 is not recorded"):
+        ship_checkpoint("loss", "bce", 4, tmp_path / "x.pt", results_root=tmp_path)
+    (kept / "loss" / "bce_seed3.pt").unlink()
+    with pytest.raises(ValueError, match="kept no checkpoint"):
+        ship_checkpoint("loss", "bce", 3, tmp_path / "x.pt", results_root=tmp_path)

@@ -8,7 +8,7 @@ one record per run to ``OUT/STUDY.json`` (written atomically after every run). R
 recorded are skipped, so an interrupted study resumes where it stopped. :func:`summarize`
 turns a results file into mean, standard deviation and a 95 % interval per config. Every
 public name is importable from here (``from e2vlib.experiments import STUDIES, run_study``);
-the code lives in nine modules, each with one job:
+the code lives in ten modules, each with one job:
 
 ===============================  ============================================================
 ``experiments.caches``           the dataset folders studies read besides data_small and the
@@ -34,11 +34,14 @@ the code lives in nine modules, each with one job:
                                  model, no training (:func:`run_geometry_study`)
 ``experiments.real_study``       models and baselines scored on real third-party meshes
                                  (:func:`run_real_study`, ``python -m e2vlib.real_study``)
+``experiments.shipping``         one kept run's model made into a checkpoint for students
+                                 (:func:`ship_checkpoint`; ``data_small/checkpoints/best.pt``)
 ===============================  ============================================================
 
 ``caches`` and ``provenance`` import no other module of this package; ``studies`` imports
 ``caches``; ``loader`` both; ``summary`` none; ``runner`` all of these; ``records`` runner,
-studies and summary; the two studies without training import ``provenance`` and ``runner``.
+studies and summary; the two studies without training import ``provenance`` and
+``runner``; ``shipping`` imports ``records``.
 None imports this ``__init__``. ``e2vlib.geometry_study`` and ``e2vlib.real_study`` stay
 importable as before.
 
@@ -88,6 +91,7 @@ from e2vlib.experiments.runner import (
     run_one,
     run_study,
 )
+from e2vlib.experiments.shipping import ship_checkpoint
 from e2vlib.experiments.studies import (
     BASE,
     COLLAPSE_IOU,
@@ -119,5 +123,5 @@ __all__ = [
     "format_summary", "git_commit", "grey_input", "input_config", "is_collapsed",
     "is_real_difference", "load_results", "load_split", "minutes_per_run", "package_version",
     "plot_summary", "recorded_on", "report", "run_one", "run_size", "run_study", "runs_of",
-    "summarize", "train_counts",
+    "ship_checkpoint", "summarize", "train_counts",
 ]
