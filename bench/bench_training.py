@@ -56,15 +56,19 @@ SPEED_OPTIONS = {
 
 
 def training_rate(batch: int = 16, steps: int = 6, precision: str = "fp32",
-                  channels_last: bool = False, compiled: bool = False) -> dict:
-    """Seconds per tiny training step (batch of real frames), as ``fit`` runs it."""
+                  channels_last: bool = False, compiled: bool = False, preset: str = "tiny",
+                  loss: str = "bce") -> dict:
+    """Seconds per training step of ``preset`` with ``loss`` (batch of real frames), as
+    ``fit`` runs it."""
+    from e2vlib.losses import make_loss
+
     data = preload(E2VDataset(DATA, "train"))
-    model = build_e2v("tiny", seed=0).train()
+    model = build_e2v(preset, seed=0).train()
     if channels_last:
         to_channels_last(model)
     net = torch.compile(model) if compiled else model
     optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
-    loss_fn = torch.nn.BCEWithLogitsLoss()
+    loss_fn = make_loss(loss)
     x = data.frames[:batch].float()
     y = data.voxels[:batch].float()
 
@@ -78,8 +82,9 @@ def training_rate(batch: int = 16, steps: int = 6, precision: str = "fp32",
     return timeit(step, repeat=steps, warmup=2)
 
 
-def speed_table(threads: int) -> list[str]:
-    """Markdown rows: each training option's step time and gain over fp32."""
+def speed_table(threads: int, **model) -> list[str]:
+    """Markdown rows: each training option's step time and gain over fp32 (``model``:
+    ``preset`` and ``loss`` of :func:`training_rate`)."""
     rows = ["| option (`fit(...)`) | step (batch 16) | samples/s | gain |",
             "| --- | --- | --- | --- |"]
     base = None
@@ -87,12 +92,12 @@ def speed_table(threads: int) -> list[str]:
         if options.get("precision") == "bf16" and not bf16_is_fast("cpu"):
             rows.append(f"| {name} | skipped: no native bfloat16 on this CPU | | |")
             continue
-        rate = training_rate(**options)
+        rate = training_rate(**options, **model)
         base = base or rate["median"]
         rows.append(f"| {name} `{options}` | {spread(rate)} | {16 / rate['median']:.0f} | "
                     f"{base / rate['median']:.2f}x |")
     torch.set_num_threads(1)
-    one = training_rate()
+    one = training_rate(**model)
     torch.set_num_threads(threads)
     rows.append(f"| fp32, 1 thread instead of {threads} | {spread(one)} | "
                 f"{16 / one['median']:.0f} | {base / one['median']:.2f}x |")
