@@ -7,7 +7,8 @@ protocol. :func:`run_study` trains and evaluates every (config, seed) with the l
 one record per run to ``OUT/STUDY.json`` (written atomically after every run). Runs already
 recorded are skipped, so an interrupted study resumes where it stopped. :func:`summarize`
 turns a results file into mean, standard deviation and a 95 % interval per config. Every
-public name is importable from here (``from e2vlib.experiments import STUDIES, run_study``);
+public name is importable from here (``from e2vlib.experiments import STUDIES, run_study``)
+but those of the two modules run as commands (``real_study``, ``shipping``);
 the code lives in ten modules, each with one job:
 
 ===============================  ============================================================
@@ -91,7 +92,6 @@ from e2vlib.experiments.runner import (
     run_one,
     run_study,
 )
-from e2vlib.experiments.shipping import ship_checkpoint
 from e2vlib.experiments.studies import (
     BASE,
     COLLAPSE_IOU,
@@ -123,5 +123,5 @@ __all__ = [
     "format_summary", "git_commit", "grey_input", "input_config", "is_collapsed",
     "is_real_difference", "load_results", "load_split", "minutes_per_run", "package_version",
     "plot_summary", "recorded_on", "report", "run_one", "run_size", "run_study", "runs_of",
-    "ship_checkpoint", "summarize", "train_counts",
+    "summarize", "train_counts",
 ]
