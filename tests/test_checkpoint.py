@@ -314,3 +314,28 @@ def test_slim_checkpoint_keeps_the_training_loss(tmp_path):
     ckpt = read_checkpoint(slim_checkpoint(full, tmp_path / "slim.pt"))
     assert ckpt["loss"] == "focal" and "optimizer" not in ckpt
     assert ckpt["config"]["in_channels"] == 2
+
+
+def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
+    """best.pt scores, on data_small's test split, exactly the test IoU@0.3 its capstone
+    record holds, with the record's threshold, data settings and provenance."""
+    import json
+
+    from e2vlib.data import E2VDataset
+    from e2vlib.metrics import score_split
+    from e2vlib.train import predict, preload
+
+    best = REPO / "data_small" / "checkpoints" / "best.pt"
+    state = read_checkpoint(best)
+    origin = state["provenance"]
+    results = json.loads((REPO / "experiments" / "results" / f"{origin['study']}.json")
+                         .read_text())
+    run = next(r for r in results["runs"]
+               if r["config"] == origin["config"] and r["seed"] == origin["seed"])
+    assert state["val_threshold"] == run["metrics"]["val_threshold"]
+    assert origin["test_iou@0.3"] == run["metrics"]["iou@0.3"]
+    assert checkpoint_data_config(state)["frame_size"] == results["protocol"]["frame_size"]
+    test = preload(E2VDataset(REPO / "data_small", "test"), progress=False)
+    probabilities = predict(load_checkpoint(best), test.frames, "cpu")
+    scores = score_split(probabilities, test.voxels, test.categories)["overall"]
+    assert scores["iou@0.3"] == pytest.approx(run["metrics"]["iou@0.3"], abs=1e-6)
