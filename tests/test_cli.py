@@ -534,3 +534,19 @@ def test_reconstruct_writes_what_the_library_returns(trained, tmp_path):
         assert sorted(written) == sorted(result.arrays())
         for key, value in result.arrays().items():
             np.testing.assert_array_equal(written[key], value)
+
+
+@pytest.mark.parametrize("args, says", [
+    (("loss", "--checkpoint", "best=x.pt"), r"--checkpoint is for the geometry study; .* "
+                                            r"--keep-checkpoints DIR"),
+    (("geometry", "--checkpoint", "best"), r"--checkpoint must look like NAME=PATH, got 'best'"),
+    (("geometry", "--checkpoint", "best=nowhere.pt"), r"--checkpoint best=nowhere.pt: no file "
+                                                      r"nowhere.pt"),
+])
+def test_experiment_checkpoint_flags_are_checked_before_any_work(capsys, tmp_path, monkeypatch,
+                                                                  args, says):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "experiment", *args)
+    assert code == 2
+    assert re.search(says, err), err
+    assert list(tmp_path.iterdir()) == []
