@@ -15,7 +15,7 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,981 lines)::
+Module map (``python tools/module_map.py --write``; 19,982 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
@@ -40,9 +40,9 @@ Module map (``python tools/module_map.py --write``; 19,981 lines)::
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     dataset_checks.py       39  Old home of checks (a dataset folder is untrusted input) ...
     events.py              325  Event streams as numpy structured arrays, and their validation
-    experiments/          1913  Experiments
+    experiments/          1914  Experiments
       caches.py             91  The dataset folders the studies read besides data_small, and ...
-      geometry_study.py    234  The geometry study
+      geometry_study.py    235  The geometry study
       loader.py            258  A study protocol's splits as model inputs, kept in memory ...
       provenance.py         58  Where a record was made
       real_study.py        295  Scoring on real meshes

@@ -185,8 +185,9 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str],
     if missing:
         raise ValueError(f"{path} records objects that {data}'s test split lacks "
                          f"({missing[:3]}...); give the --data it was made from")
-    frames = torch.stack([test[index[r["id"]]]["frames"] for r in todo])
-    labels = [test[index[r["id"]]]["voxels"].numpy().astype(bool) for r in todo]
+    items = [test[index[r["id"]]] for r in todo]  # each sample read once
+    frames = torch.stack([item["frames"] for item in items])
+    labels = [item["voxels"].numpy().astype(bool) for item in items]
     val = preload(E2VDataset(data, "val"), progress=False)
     oracle = {c: v.numpy() for c, v in
               category_mean_shapes(preload(E2VDataset(data, "train"), progress=False)).items()}
