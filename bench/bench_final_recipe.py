@@ -6,6 +6,8 @@
 2. One training step of the final recipe's model (preset ``tiny_norm``, BCE + Dice, batch 16,
    data_small's frames) with each of ``fit``'s speed options, and the 30-epoch time each
    would give, scaled from the recorded fp32 runs by the step-time ratio.
+3. A ``torch.profiler`` profile of the fp32 step: each kind of operator's share of the CPU
+   time, and the operators that take the most.
 
 Run it on an idle machine: ``python bench/bench_final_recipe.py``; writes the "Final recipe"
 section of bench/RESULTS.md.
@@ -21,7 +23,7 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_training import SPEED_OPTIONS, training_rate  # noqa: E402
+from bench_training import SPEED_OPTIONS, training_rate, training_step  # noqa: E402
 from common import machine, spread, write_section  # noqa: E402
 
 from e2vlib.train import bf16_is_fast  # noqa: E402
@@ -29,6 +31,47 @@ from e2vlib.train import bf16_is_fast  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = "bce_dice_30_epochs"
 TARGET_MINUTES = 15
+PROFILED_STEPS = 4
+OPERATOR_KINDS = {  # kind -> substrings of aten operator names, first match wins
+    "convolution backward": ("convolution_backward",),
+    "convolution forward": ("convolution", "conv3d", "conv_transpose"),
+    "batch norm": ("batch_norm",),
+    "pooling": ("pool",),
+    "optimizer (AdamW)": ("_foreach", "addcdiv", "addcmul", "lerp", "sqrt"),
+    "linear (bridge)": ("addmm", "aten::mm", "linear"),
+    "memory (copies, fills)": ("copy_", "fill_", "zero_", "empty", "clone", "cat"),
+}
+
+
+def operator_kind(name: str) -> str:
+    """The kind of an aten operator name (:data:`OPERATOR_KINDS`), else "element-wise and
+    other"."""
+    for kind, parts in OPERATOR_KINDS.items():
+        if any(part in name for part in parts):
+            return kind
+    return "element-wise and other"
+
+
+def profile_step(**options) -> tuple[dict[str, float], list[tuple[str, float]]]:
+    """Profile :data:`PROFILED_STEPS` training steps: (share of self CPU time per operator
+    kind, and the 6 operators with the most self CPU time with their shares)."""
+    from torch.profiler import ProfilerActivity, profile
+
+    step = training_step(**options)
+    step()
+    step()  # warm up: first-call allocations and kernel choices
+    with profile(activities=[ProfilerActivity.CPU]) as prof:
+        for _ in range(PROFILED_STEPS):
+            step()
+    events = [e for e in prof.key_averages() if e.key.startswith("aten::")]
+    total = sum(e.self_cpu_time_total for e in events)
+    kinds: dict[str, float] = {}
+    for e in events:
+        kind = operator_kind(e.key)
+        kinds[kind] = kinds.get(kind, 0.0) + e.self_cpu_time_total / total
+    top = sorted(events, key=lambda e: e.self_cpu_time_total, reverse=True)[:6]
+    return (dict(sorted(kinds.items(), key=lambda kv: -kv[1])),
+            [(e.key, e.self_cpu_time_total / total) for e in top])
 
 
 def main() -> str:
@@ -62,6 +105,13 @@ def main() -> str:
         gain = base / rate["median"]
         lines.append(f"| {name} `{options}` | {spread(rate)} | {gain:.2f}x | "
                      f"{minutes.mean() / gain:.1f} min |")
+    kinds, top = profile_step(preset=params["preset"], loss=params["loss"])
+    lines += ["", f"Where the fp32 step's time goes (`torch.profiler`, {PROFILED_STEPS} steps "
+              "after 2 warm-up steps; share of the self CPU time of all aten operators):", "",
+              "| operator kind | share |", "| --- | --- |"]
+    lines += [f"| {kind} | {share:.0%} |" for kind, share in kinds.items()]
+    lines += ["", "Largest single operators: "
+              + ", ".join(f"`{name}` {share:.0%}" for name, share in top) + "."]
     body = "\n".join(lines) + "\n"
     write_section("Final recipe", body)
     return body

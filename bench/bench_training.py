@@ -55,11 +55,10 @@ SPEED_OPTIONS = {
 """``fit`` options whose training step is timed (``fit(..., **options)``)."""
 
 
-def training_rate(batch: int = 16, steps: int = 6, precision: str = "fp32",
-                  channels_last: bool = False, compiled: bool = False, preset: str = "tiny",
-                  loss: str = "bce") -> dict:
-    """Seconds per training step of ``preset`` with ``loss`` (batch of real frames), as
-    ``fit`` runs it."""
+def training_step(batch: int = 16, precision: str = "fp32", channels_last: bool = False,
+                  compiled: bool = False, preset: str = "tiny", loss: str = "bce"):
+    """One training step of ``preset`` with ``loss`` on a batch of data_small's real frames,
+    as ``fit`` runs it, as a function of no arguments."""
     from e2vlib.losses import make_loss
 
     data = preload(E2VDataset(DATA, "train"))
@@ -79,7 +78,13 @@ def training_rate(batch: int = 16, steps: int = 6, precision: str = "fp32",
         loss_fn(logits.float(), y).backward()
         optimizer.step()
 
-    return timeit(step, repeat=steps, warmup=2)
+    return step
+
+
+def training_rate(batch: int = 16, steps: int = 6, **options) -> dict:
+    """Seconds per training step (median, min, max of ``steps``); ``options`` as
+    :func:`training_step`."""
+    return timeit(training_step(batch, **options), repeat=steps, warmup=2)
 
 
 def speed_table(threads: int, **model) -> list[str]:
