@@ -513,6 +513,11 @@ def test_summary_and_intervals_have_known_answers():
     assert list(summary["a"]["per_category"]) == ["airplane", "chair"]  # the paper's order
     assert summary["a"]["per_category"]["chair"]["mean"] == pytest.approx(0.3)
     assert summary["a"]["overall"]["n"] == 3 and summary["b"]["overall"]["n"] == 1
+    # a category of one object has no interval: the table says so instead of "nan"
+    only_a = [{**r, "scores": {"a": r["scores"]["a"]}} for r in runs]
+    table = format_real_table({"runs": only_a})
+    assert "nan" not in table
+    assert "0.900 (1 object)" in table and "0.300 [-0.971, 1.571]" in table
 
 
 def test_the_shipped_meshes_are_small_cc0_models_of_the_catalogue():

@@ -240,12 +240,15 @@ def format_real_table(results: dict | str | os.PathLike, metric: str = "iou@0.3"
         results = json.loads(Path(results).read_text())
     summary = summarize_real(results["runs"], metric)
     methods = list(summary)
-    header = f"{'category':<11} {'n':>3} " + " ".join(f"{m:>21}" for m in methods)
+    width = 22  # room for a negative lower bound: "0.261 [-0.022, 0.543]"
+    header = f"{'category':<11} {'n':>3} " + " ".join(f"{m:>{width}}" for m in methods)
     lines = [header, "-" * len(header)]
 
     def cell(row):
         lo, hi = row["ci95"]
-        return f"{row['mean']:.3f} [{lo:.3f}, {hi:.3f}]".rjust(21)
+        if row["n"] < 2:  # no spread to estimate from a single object
+            return f"{row['mean']:.3f} (1 object)".rjust(width)
+        return f"{row['mean']:.3f} [{lo:.3f}, {hi:.3f}]".rjust(width)
 
     first = summary[methods[0]]["per_category"]
     for c in first:
