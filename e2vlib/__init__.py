@@ -15,7 +15,7 @@ below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 19,985 lines)::
+Module map (``python tools/module_map.py --write``; 19,991 lines)::
 
     __main__.py             78  Command line
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
@@ -40,13 +40,13 @@ Module map (``python tools/module_map.py --write``; 19,985 lines)::
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     dataset_checks.py       39  Old home of checks (a dataset folder is untrusted input) ...
     events.py              325  Event streams as numpy structured arrays, and their validation
-    experiments/          1917  Experiments
+    experiments/          1923  Experiments
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       geometry_study.py    235  The geometry study
       loader.py            258  A study protocol's splits as model inputs, kept in memory ...
       provenance.py         58  Where a record was made
       real_study.py        298  Scoring on real meshes
-      records.py           166  Recorded study results, read the same way by every lesson
+      records.py           172  Recorded study results, read the same way by every lesson
       runner.py            260  Running studies
       shipping.py           84  Ship one recorded run's model
       studies.py           220  The studies

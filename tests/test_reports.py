@@ -86,6 +86,15 @@ def test_report_prints_table_verdicts_minutes_and_cpu():
     assert "+0.100 vs a" in text and "beyond the seed spread" in text
     assert "minutes of training per run: a 2.0, b 2.0; recorded on Test CPU" in text
     assert "command: python -m e2vlib experiment toy" in text
+    # a study grown over several calls names each of them, not only the latest
+    grown = _results({"a": [0.40, 0.42, 0.44]})
+    grown["commands"] = ["python -m e2vlib experiment toy --configs a --seeds 0",
+                         "python -m e2vlib experiment toy --configs a --seeds 1 2"]
+    lines.clear()
+    reports.report(grown, "a", out=lines.append)
+    assert lines[-3:] == ["  made by 2 commands, oldest first:",
+                          "    python -m e2vlib experiment toy --configs a --seeds 0",
+                          "    python -m e2vlib experiment toy --configs a --seeds 1 2"]
 
 
 def test_bench_tables_and_lesson_minutes(tmp_path):

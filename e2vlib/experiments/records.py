@@ -148,7 +148,8 @@ def report(results: dict, baseline: str, metric: str = "iou@0.3",
 
     The table is :func:`~e2vlib.format_summary`; each comparison gives the
     difference, Welch's p-value and the verdict of :func:`is_real_difference`; the last line
-    says how many runs, their minutes of training and the CPU they were recorded on.
+    says how many runs, their minutes of training and the CPU they were recorded on, then the
+    command (or every command, oldest first) that recorded them.
     """
     rows = summarize(results, metric)
     out(format_summary(rows, metric))
@@ -161,6 +162,11 @@ def report(results: dict, baseline: str, metric: str = "iou@0.3",
         spread = ", ".join(f"{c} {m:.1f}" for c, m in minutes.items())
         out(f"  {len(results['runs'])} runs; minutes of training per run: {spread}; recorded on "
             f"{recorded_on(results)}")
-    if results.get("command"):
-        out(f"  command: {results['command']}")
+    commands = results.get("commands") or ([results["command"]] if results.get("command") else [])
+    if len(commands) == 1:
+        out(f"  command: {commands[0]}")
+    elif commands:  # a study grown over several calls: the latest alone did not make the table
+        out(f"  made by {len(commands)} commands, oldest first:")
+        for command in commands:
+            out(f"    {command}")
     return rows
