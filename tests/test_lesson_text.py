@@ -42,7 +42,7 @@ SETTINGS = {
 PROCESS_TEXT = (
     "session", "earlier build", "first written", "being made", "prototype of this project",
     "throw-away prototype", "timed in another", "under load", "used to be", "-dirty",
-    "../shared", "shared/paper.md", "this project was", "we later", "were later",
+    "../shared", "shared/paper.md", "this project was", "we later", "were later", "now also",
 )
 
 NUMBER = re.compile(
