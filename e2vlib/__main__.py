@@ -28,7 +28,7 @@ def _figures(args: argparse.Namespace) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
-    from e2vlib.figures import render_readme_figures
+    from e2vlib.experiments.figures import render_readme_figures
 
     checkpoint = args.checkpoint or str(Path(args.data) / "checkpoints" / "tiny.pt")
     try:

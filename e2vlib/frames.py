@@ -5,7 +5,7 @@ microseconds) and ``sensor_size = (width, height)``, validate them, and never mo
 caller's array. Frames are indexed ``[k, y, x]``; with fixed windows (the default) frame
 ``k`` covers the half-open window ``[t0 + k*dt, t0 + (k+1)*dt)``; ``windows="paper"``
 groups events as the paper's Eq. 5 does (see :func:`accumulate`). :func:`accumulate` runs
-a compiled kernel (:mod:`e2vlib.frames_fast`, numba) where numba is installed; its numpy
+a compiled kernel (:mod:`e2vlib.scale.frames_numba`, numba) where numba is installed; its numpy
 reference, here, gives the same frames (``backend="numpy"``).
 
 Introduced in notebooks/02_event_frames.ipynb.
@@ -208,12 +208,12 @@ BACKENDS = ("auto", "numba", "numpy")
 
 @functools.cache
 def _fast_kernels():
-    """The compiled kernels (:mod:`e2vlib.frames_fast`), or None where numba is missing.
+    """The compiled kernels (:mod:`e2vlib.scale.frames_numba`), or None where numba is missing.
 
     Imported on the first fast call, not with this module: importing numba takes a while.
     """
     try:
-        from e2vlib import frames_fast
+        from e2vlib.scale import frames_numba as frames_fast
     except ImportError:
         return None
     return frames_fast
@@ -251,7 +251,7 @@ def accumulate(
 
     Backends give identical frames: ``"numpy"`` is the plain reference written out below
     (vectorized blocks and one ``np.bincount``; read it to see how frames are made);
-    ``"numba"`` runs the compiled single pass of :mod:`e2vlib.frames_fast`, about twice as
+    ``"numba"`` runs the compiled single pass of :mod:`e2vlib.scale.frames_numba`, about twice as
     fast for counts (bench/RESULTS.md; the first call on a machine compiles it, a few
     seconds, then it is cached on disk), and counts streams of a million events or more
     in one part per core, at the same time;

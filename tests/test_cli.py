@@ -522,7 +522,7 @@ def test_the_choices_are_the_librarys_own_tuples():
 
 
 def test_reconstruct_writes_what_the_library_returns(trained, tmp_path):
-    from e2vlib.reconstruct import reconstruct
+    from e2vlib.experiments.reconstruct import reconstruct
 
     _, _, out = trained
     mesh_path = tmp_path / "box.stl"

@@ -11,9 +11,9 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import torch  # noqa: E402
 
-from e2vlib import explore  # noqa: E402
 from e2vlib.data import E2VDataset, save_sample  # noqa: E402
 from e2vlib.events import make_events  # noqa: E402
+from e2vlib.experiments import explore  # noqa: E402
 from e2vlib.frames import accumulate  # noqa: E402
 from e2vlib.io import save_events  # noqa: E402
 

@@ -1,11 +1,11 @@
-"""The README's pictures (e2vlib.figures), from data_small and its committed checkpoint."""
+"""The README's pictures (e2vlib.experiments.figures), from data_small and its committed checkpoint."""
 
 import numpy as np
 import pytest
 
 pytest.importorskip("pyvista")
 
-from e2vlib.figures import README_CATEGORIES, render_readme_figures  # noqa: E402
+from e2vlib.experiments.figures import README_CATEGORIES, render_readme_figures  # noqa: E402
 
 from .conftest import REPO  # noqa: E402
 

@@ -329,7 +329,7 @@ def test_auto_backend_falls_back_to_numpy_without_numba(monkeypatch, random_even
 @pytest.mark.parametrize("mode", ["binary", "count", "polarity"])
 def test_backends_agree_on_sparse_and_busy_frames(mode, windows, threads, monkeypatch):
     if threads:  # cut into 3 parts counted in threads, as streams of >= 1 M events are
-        from e2vlib import frames_fast
+        from e2vlib.scale import frames_numba as frames_fast
         monkeypatch.setattr(frames_fast, "THREADED_MIN_EVENTS", 1)
         monkeypatch.setattr(frames_fast, "_cores", lambda: 3)
     # a big sensor with a few events per frame (flushed event by event) and bursts that
@@ -352,7 +352,7 @@ def test_backends_agree_on_sparse_and_busy_frames(mode, windows, threads, monkey
 def test_threaded_counting_reports_unsorted_times(windows, monkeypatch):
     # each half sorted, the later half first: the cuts found by bisection or galloping mean
     # nothing then, and the parts' own checks (or the one across each cut) must report it
-    from e2vlib import frames_fast
+    from e2vlib.scale import frames_numba as frames_fast
     monkeypatch.setattr(frames_fast, "THREADED_MIN_EVENTS", 1)
     monkeypatch.setattr(frames_fast, "_cores", lambda: 2)
     rng = np.random.default_rng(3)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from e2vlib.data import BuildConfig, E2VDataset, build_dataset
-from e2vlib.geometry_study import METHODS, run_geometry_study, summarize_geometry
+from e2vlib.experiments.geometry_study import METHODS, run_geometry_study, summarize_geometry
 from e2vlib.model import build_e2v, save_checkpoint
 
 
@@ -60,8 +60,8 @@ def test_added_checkpoints_score_like_learned_and_keep_the_carving(tiny_data, tm
     of a category is its mean training label; carving is not redone; clashes are refused."""
     import shutil
 
+    from e2vlib.experiments.geometry_study import add_checkpoints
     from e2vlib.geometry import score_occupancy
-    from e2vlib.geometry_study import add_checkpoints
     from e2vlib.train import category_mean_shapes, preload
 
     path = run_geometry_study(tmp_path, data=tiny_data, events=tiny_data, n_points=256,

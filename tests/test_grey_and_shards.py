@@ -21,7 +21,7 @@ from e2vlib.data import (
     save_sample,
     video_to_grey,
 )
-from e2vlib.shards import MergeError, merge_datasets
+from e2vlib.scale.shards import MergeError, merge_datasets
 
 from .conftest import REPO
 

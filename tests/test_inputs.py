@@ -5,9 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from e2vlib import data, explore
+from e2vlib import data
 from e2vlib.data import load_sample
 from e2vlib.events import EventError, make_events
+from e2vlib.experiments import explore
 from e2vlib.frames import (
     accumulate,
     downsample,

@@ -143,7 +143,7 @@ def test_explore_uses_viz_but_not_data():
     assert {name for name, deps in graph.items() if "figures" in deps} == {"__main__"}
 
 
-@pytest.mark.parametrize("module", ["e2vlib.viz", "e2vlib.explore"])
+@pytest.mark.parametrize("module", ["e2vlib.viz", "e2vlib.experiments.explore"])
 def test_importing_the_view_layer_loads_no_torch_pyvista_or_widgets(module):
     code = (f"import sys, {module}; "
             "print(sorted(m for m in ('torch', 'pyvista', 'ipywidgets') if m in sys.modules))")

@@ -16,8 +16,7 @@ import trimesh
 
 from e2vlib import paper
 from e2vlib.data import BuildConfig, E2VDataset, build_dataset
-from e2vlib.metrics import interval95
-from e2vlib.real_meshes import (
+from e2vlib.experiments.real_meshes import (
     CRRCSIM,
     CRRCSIM_DIR,
     FURNITURE_DIR,
@@ -39,7 +38,8 @@ from e2vlib.real_meshes import (
     read_mapping,
     resolve,
 )
-from e2vlib.real_study import format_real_table, run_real_study, summarize_real
+from e2vlib.experiments.real_study import format_real_table, run_real_study, summarize_real
+from e2vlib.metrics import interval95
 
 INSTALLED = (FURNITURE_DIR.is_dir() and any(FURNITURE_DIR.glob("*.sh3f"))
              and CRRCSIM_DIR.is_dir())

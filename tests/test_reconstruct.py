@@ -1,4 +1,4 @@
-"""e2vlib.reconstruct: one object from a mesh or from events, as ``python -m e2vlib
+"""e2vlib.experiments.reconstruct: one object from a mesh or from events, as ``python -m e2vlib
 reconstruct`` does it; known answers from data_small's shipped checkpoint and samples."""
 
 import csv
@@ -10,11 +10,11 @@ import torch
 
 from e2vlib.data import load_sample
 from e2vlib.events import make_events
+from e2vlib.experiments.reconstruct import InputError, Reconstruction, input_config, reconstruct
 from e2vlib.inputs import events_to_model_input
 from e2vlib.io import load_events, save_events
 from e2vlib.metrics import iou
 from e2vlib.model import build_e2v, load_checkpoint, read_checkpoint, save_checkpoint
-from e2vlib.reconstruct import InputError, Reconstruction, input_config, reconstruct
 from e2vlib.shapes import make_shape
 from e2vlib.train import predict
 

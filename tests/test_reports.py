@@ -1,10 +1,11 @@
-"""e2vlib.reports: study records and bench figures read the same way by every lesson."""
+"""e2vlib.experiments.reports: study records and bench figures read the same way by every lesson."""
 
 import json
 
 import pytest
 
-from e2vlib import experiments, paper, reports
+from e2vlib import experiments, paper
+from e2vlib.experiments import reports
 
 from .conftest import REPO
 

@@ -169,7 +169,7 @@ def write_time_lines(minutes: dict[str, tuple[str, str]]) -> list[str]:
 def bench_times() -> dict[str, tuple[str, str]]:
     """``{notebook: (quick, full)}`` cells of the "Lessons" table of bench/RESULTS.md."""
     sys.path.insert(0, str(ROOT))
-    from e2vlib.reports import bench_table
+    from e2vlib.experiments.reports import bench_table
 
     return {row["notebook"]: (row["quick"], row["full"]) for row in bench_table("Lessons")
             if row["notebook"].endswith(".ipynb")}

@@ -17,7 +17,7 @@ made. The code lives in six modules, each with one job:
 ``cli.data_commands``          ``make-data`` (:data:`DATA_PRESETS`, :func:`build_config`),
                                ``merge-data``, ``verify-data``
 ``cli.model_commands``         ``train`` (and what resuming checks, :func:`resume_checks`),
-                               ``evaluate``, ``reconstruct`` (:func:`e2vlib.reconstruct
+                               ``evaluate``, ``reconstruct`` (:func:`e2vlib.experiments.reconstruct
                                .reconstruct` does the work)
 ``cli.study_commands``         ``experiment`` (training studies and the geometry study)
 ``cli.parser``                 :func:`build_parser`: every subcommand, its flags, help and

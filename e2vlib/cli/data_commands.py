@@ -77,8 +77,8 @@ def run_make_data(args: argparse.Namespace) -> int:
         raise UsageError(f"--shard: {err}") from None
     config = build_config(args)
     output_folder(args.out, "--out")
-    if args.real_meshes is not None:  # the real-mesh test set (e2vlib.real_meshes)
-        from e2vlib.real_meshes import build_real_dataset
+    if args.real_meshes is not None:  # the real-mesh test set (e2vlib.experiments.real_meshes)
+        from e2vlib.experiments.real_meshes import build_real_dataset
 
         manifest = build_real_dataset(args.out, config, args.real_meshes, workers=args.workers)
         print(f"manifest: {manifest}")
@@ -106,7 +106,7 @@ def run_merge_data(args: argparse.Namespace) -> int:
     e2vlib.cli.errors.UsageError: shard folder .../s0: no such folder; give the --out folders of \
 the make-data --shard runs
     """
-    from e2vlib.shards import merge_datasets
+    from e2vlib.scale.shards import merge_datasets
 
     out = output_folder(args.out, "--out")
     for folder in args.shards:

@@ -80,7 +80,7 @@ def run_train(args: argparse.Namespace) -> int:
     e2vlib.cli.errors.UsageError: --recipe 'bogus' is not a training recipe; choose one of ...
     """
     from e2vlib.data import E2VDataset
-    from e2vlib.dataset_checks import read_config
+    from e2vlib.data.checks import read_config
     from e2vlib.model import PRESETS, build_e2v, model_from_checkpoint, read_checkpoint
     from e2vlib.paper import IOU_THRESHOLD
     from e2vlib.train import RECIPES, fit, get_recipe, init_distributed_from_env
@@ -197,7 +197,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
 
 def run_reconstruct(args: argparse.Namespace) -> int:
-    """``reconstruct``: :func:`e2vlib.reconstruct.reconstruct`, written to ``--out``.
+    """``reconstruct``: :func:`e2vlib.experiments.reconstruct.reconstruct`, written to ``--out``.
 
     Examples
     --------
@@ -212,9 +212,9 @@ of .png, .jpg, .jpeg, .pdf, .svg
     """
     import numpy as np
 
+    from e2vlib.experiments.reconstruct import InputError, reconstruct
     from e2vlib.files import atomic_path
     from e2vlib.paper import IOU_THRESHOLD
-    from e2vlib.reconstruct import InputError, reconstruct
 
     out = output_file(args.out, "--out", "reconstruction.npz")
     png = output_file(args.png, "--png", "reconstruction.png") if args.png else None

@@ -63,7 +63,7 @@ def run_geometry_study(args: argparse.Namespace) -> int:
 training); run `python -m e2vlib experiment geometry`
     """
     from e2vlib.experiments import DEFAULT_OUT
-    from e2vlib.geometry_study import run_geometry_study, summarize_geometry
+    from e2vlib.experiments.geometry_study import run_geometry_study, summarize_geometry
 
     if args.configs or args.quick:
         raise UsageError("the geometry study has no configs and no quick mode (no training); "

@@ -45,8 +45,8 @@ table (and ``e2vlib.inputs``, ``frames``, ``io``, ``events``, ``files``, ``paper
 ``render``, ``simulate``, ``shapes`` and ``voxels`` lazily); none imports this package's
 ``__init__``. Events become frames in :mod:`e2vlib.inputs` (:func:`e2vlib.inputs.orbit_input`
 for the builder and SynthEVox3D scans); its older names :func:`events_to_frames` and
-:func:`events_to_model_input` are re-exported here. ``e2vlib.shards`` and
-``e2vlib.dataset_checks`` are the old homes of ``data.shards`` and ``data.checks``; they
+:func:`events_to_model_input` are re-exported here. ``e2vlib.scale.shards`` and
+``e2vlib.data.checks`` are the old homes of ``data.shards`` and ``data.checks``; they
 re-export them.
 
 Layout written by :func:`build_dataset` (``data_small/`` is one)::
@@ -125,7 +125,6 @@ from e2vlib.data.plan import (
     sample_seed,
 )
 from e2vlib.data.samples import Sample, load_sample, mesh_to_sample, save_sample
-from e2vlib.data.shards import MergeError, MergeReport, merge_datasets
 from e2vlib.data.synthevox3d import (
     SYNTHEVOX3D_SENSOR,
     load_synthevox3d_scan,
@@ -153,8 +152,6 @@ __all__ = [
     "BuildConfig",
     "DatasetError",
     "E2VDataset",
-    "MergeError",
-    "MergeReport",
     "Sample",
     "SampleSpec",
     "Verification",
@@ -175,7 +172,6 @@ __all__ = [
     "load_synthevox3d_scan",
     "make_data_command",
     "manifest_digests",
-    "merge_datasets",
     "mesh_to_sample",
     "nearest_frames",
     "npz_digest",

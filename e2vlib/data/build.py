@@ -130,7 +130,7 @@ def build_dataset(
     every file is written under a temporary name, then renamed. ``shard=(i, n)`` builds
     every n-th sample starting at i, so n processes or cluster jobs can share the work
     (into one shared folder or one folder each, joined by
-    :func:`e2vlib.data.shards.merge_datasets`); it leaves ROOT/shards/<i>-of-<n>.json so a
+    :func:`e2vlib.scale.shards.merge_datasets`); it leaves ROOT/shards/<i>-of-<n>.json so a
     merge can name a missing shard. Each run rewrites the manifest from the sample files
     present.
     Introduced in notebooks/04_building_the_dataset.ipynb.

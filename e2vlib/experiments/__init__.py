@@ -34,7 +34,7 @@ the code lives in ten modules, each with one job:
 ``experiments.geometry_study``   the visual hull and events-only carving against the learned
                                  model, no training (:func:`run_geometry_study`)
 ``experiments.real_study``       models and baselines scored on real third-party meshes
-                                 (:func:`run_real_study`, ``python -m e2vlib.real_study``)
+                                 (:func:`run_real_study`, ``python -m e2vlib.experiments.real_study``)
 ``experiments.shipping``         one kept run's model made into a checkpoint for students
                                  (:func:`ship_checkpoint`; ``data_small/checkpoints/best.pt``)
 ===============================  ============================================================
@@ -43,7 +43,7 @@ the code lives in ten modules, each with one job:
 ``caches``; ``loader`` both; ``summary`` none; ``runner`` all of these; ``records`` runner,
 studies and summary; the two studies without training import ``provenance`` and
 ``runner``; ``shipping`` imports ``records``.
-None imports this ``__init__``. ``e2vlib.geometry_study`` and ``e2vlib.real_study`` stay
+None imports this ``__init__``. ``e2vlib.experiments.geometry_study`` and ``e2vlib.experiments.real_study`` stay
 importable as before.
 
 Command line: ``python -m e2vlib experiment STUDY [--configs ...] [--seeds 0 1 2]``.

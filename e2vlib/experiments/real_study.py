@@ -1,6 +1,6 @@
 """Scoring on real meshes: how far training on procedural shapes carries to real objects.
 
-The real-mesh test set (:mod:`e2vlib.real_meshes`, built by ``make-data --real-meshes``)
+The real-mesh test set (:mod:`e2vlib.experiments.real_meshes`, built by ``make-data --real-meshes``)
 holds third-party furniture, vehicle and device models of the paper's categories, made into
 samples by the data_small protocol. On every object this scores, with
 :func:`e2vlib.geometry.score_occupancy` (the learned model's metrics):
@@ -18,7 +18,7 @@ One record per object is written to ``OUT/real_meshes.json`` atomically after ea
 recorded methods are skipped, so an interrupted run resumes and a second checkpoint is added
 later by one more ``--checkpoint best=data_small/checkpoints/best.pt``. Per method and
 category the file also holds a summary: n, mean IoU@0.3 and its 95 % interval over objects
-(Student's t). Command: ``python -m e2vlib.real_study`` (``--help``).
+(Student's t). Command: ``python -m e2vlib.experiments.real_study`` (``--help``).
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ from e2vlib.files import atomic_path
 BASELINES = ("visual_hull", "mean_shape", "category_oracle")
 """The methods scored beside the checkpoints, in table order."""
 DEFAULT_CHECKPOINTS = {"tiny": "data_small/checkpoints/tiny.pt"}
-COMMAND = "python -m e2vlib.real_study --checkpoint tiny=data_small/checkpoints/tiny.pt"
-"""The recorded command (after the build in :data:`e2vlib.real_meshes.BUILD_COMMAND`)."""
+COMMAND = "python -m e2vlib.experiments.real_study --checkpoint tiny=data_small/checkpoints/tiny.pt"
+"""The recorded command (after the build in :data:`e2vlib.experiments.real_meshes.BUILD_COMMAND`)."""
 QUESTION = ("The learned models train on procedural stand-ins of the 13 categories. On real "
             "third-party models of the same categories (Sweet Home 3D's furniture libraries), "
             "made into samples by the same pipeline, how well do they reconstruct, next to a "
@@ -124,15 +124,15 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
     from tqdm.auto import tqdm
 
     from e2vlib.data import BuildConfig, E2VDataset
-    from e2vlib.geometry import score_occupancy
-    from e2vlib.metrics import iou
-    from e2vlib.real_meshes import (
+    from e2vlib.experiments.real_meshes import (
         FURNITURE_DIR,
         MAPPING_CSV,
         load_entry_mesh,
         read_mapping,
         resolve,
     )
+    from e2vlib.geometry import score_occupancy
+    from e2vlib.metrics import iou
     from e2vlib.train import category_mean_shapes, preload
 
     checkpoints = dict(checkpoints or DEFAULT_CHECKPOINTS)
@@ -141,7 +141,7 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         raise ValueError(f"checkpoint names {clash} are baseline names; choose others")
     data, train_data = Path(data), Path(train_data)
     if not (data / "manifest.csv").is_file():
-        from e2vlib.real_meshes import BUILD_COMMAND
+        from e2vlib.experiments.real_meshes import BUILD_COMMAND
         raise FileNotFoundError(f"{data} holds no real-mesh dataset; build it first: "
                                 f"{BUILD_COMMAND}")
     stored = json.loads((data / "config.json").read_text())
@@ -168,7 +168,7 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         if known is not None and known["path"] != str(ckpt):
             raise ValueError(f"{path} already scores a checkpoint named {name!r} from "
                              f"{known['path']}; give {ckpt} another name")
-    from e2vlib.real_meshes import BUILD_COMMAND
+    from e2vlib.experiments.real_meshes import BUILD_COMMAND
     results.setdefault("commands", [])
     if command not in results["commands"]:
         results["commands"].append(command)
@@ -261,8 +261,8 @@ def format_real_table(results: dict | str | os.PathLike, metric: str = "iou@0.3"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m e2vlib.real_study``: score the real-mesh test set (resumable)."""
-    parser = argparse.ArgumentParser(prog="python -m e2vlib.real_study",
+    """``python -m e2vlib.experiments.real_study``: score the real-mesh test set (resumable)."""
+    parser = argparse.ArgumentParser(prog="python -m e2vlib.experiments.real_study",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", default="cache/real_meshes",
                         help="the real-mesh dataset (make-data --real-meshes)")
@@ -285,7 +285,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not sep or not name or not ckpt:
             parser.error(f"--checkpoint must look like NAME=PATH, got {item!r}")
         checkpoints[name] = ckpt
-    command = " ".join(["python -m e2vlib.real_study", *(argv if argv is not None
+    command = " ".join(["python -m e2vlib.experiments.real_study", *(argv if argv is not None
                                                           else sys.argv[1:])])
     path = run_real_study(args.out, args.data, args.train_data, checkpoints,
                           command=command)

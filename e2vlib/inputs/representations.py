@@ -23,7 +23,7 @@ The older names are thin calls of these two and stay importable from where they 
 :func:`events_to_input` (``orbit_input`` with ``representation`` third),
 :func:`events_to_frames` (binary ``orbit_input``, also as ``e2vlib.data.events_to_frames``),
 :func:`events_to_model_input` (binary ``recording_input``, also as
-``e2vlib.data.events_to_model_input``) and ``e2vlib.explore._frames_at``.
+``e2vlib.data.events_to_model_input``) and ``e2vlib.experiments.explore._frames_at``.
 
 This module imports only ``frames``, ``events`` and ``paper`` (``data`` imports it).
 Introduced in notebooks/09_event_representations_and_time.ipynb.

@@ -40,7 +40,7 @@ matplotlib but not pyvista, ipywidgets or torch (they load on first use). The pa
 attribute ``viz.animation`` is the module; matplotlib's is ``matplotlib.animation``.
 
 This package draws what it is given; it never reads datasets or runs models (the README's
-pictures, which do both, live in :mod:`e2vlib.figures`).
+pictures, which do both, live in :mod:`e2vlib.experiments.figures`).
 
 Introduced in notebooks/01_events.ipynb, notebooks/02_event_frames.ipynb and
 notebooks/08_visualizing_in_3d.ipynb.

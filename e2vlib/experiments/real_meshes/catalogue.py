@@ -377,7 +377,7 @@ def crrcsim_entry(file_name: str, crrcsim_folder: str | os.PathLike = CRRCSIM_DI
     >>> crrcsim_entry("../plane.ac")
     Traceback (most recent call last):
     ...
-    e2vlib.real_meshes.catalogue.RealMeshError: crrcsim-data entry '../plane.ac' must be a \
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: crrcsim-data entry '../plane.ac' must be a \
 plain .ac file name
     """
     path = Path(crrcsim_folder) / file_name

@@ -6,8 +6,8 @@ GPL-2.0, read where the package installs them and never shipped). A reviewed tab
 ``data_small/real/catalogue.csv``, keeps 241 of them (23 aircraft) in the paper's 13
 categories; each is loaded in the project's frame (z up, front -y, bounding box centred,
 longest side 1) and built into a test sample by the data_small protocol, so models trained
-on data_small read it as they read its test split; :mod:`e2vlib.real_study` scores them.
-Every public name is importable from here (``from e2vlib.real_meshes import read_mapping,
+on data_small read it as they read its test split; :mod:`e2vlib.experiments.real_study` scores them.
+Every public name is importable from here (``from e2vlib.experiments.real_meshes import read_mapping,
 load_entry_mesh``); the code lives in five modules, each with one job:
 
 ==========================  ================================================================
@@ -41,14 +41,14 @@ imports this ``__init__``. Until the split this package was one module,
 Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
-from e2vlib.real_meshes.ac3d import ac3d_to_mesh
-from e2vlib.real_meshes.build import (
+from e2vlib.experiments.real_meshes.ac3d import ac3d_to_mesh
+from e2vlib.experiments.real_meshes.build import (
     BUILD_COMMAND,
     build_real_dataset,
     real_config,
     real_sample_seed,
 )
-from e2vlib.real_meshes.catalogue import (
+from e2vlib.experiments.real_meshes.catalogue import (
     CATALOGUE_FILE,
     CRRCSIM,
     CRRCSIM_COPYRIGHT,
@@ -71,7 +71,7 @@ from e2vlib.real_meshes.catalogue import (
     read_all_catalogues,
     read_catalogue,
 )
-from e2vlib.real_meshes.mapping import (
+from e2vlib.experiments.real_meshes.mapping import (
     MAPPING_CSV,
     MAPPING_FIELDS,
     MappedEntry,
@@ -79,7 +79,7 @@ from e2vlib.real_meshes.mapping import (
     read_mapping,
     resolve,
 )
-from e2vlib.real_meshes.meshes import (
+from e2vlib.experiments.real_meshes.meshes import (
     POSES,
     SH3D_TO_ZUP,
     entry_transform,

@@ -44,7 +44,7 @@ __all__ = ["MissingResultsError", "load_results", "is_real_difference", "runs_of
            "minutes_per_run", "recorded_on", "finding", "report", "bench_section",
            "bench_machine", "bench_table", "lesson_minutes"]
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 BENCH_RESULTS = REPO / "bench" / "RESULTS.md"
 
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from e2vlib import paper
-from e2vlib.real_meshes.catalogue import (
+from e2vlib.experiments.real_meshes.catalogue import (
     CRRCSIM,
     CRRCSIM_DIR,
     CRRCSIM_INSTALL_HINT,
@@ -31,9 +31,9 @@ from e2vlib.real_meshes.catalogue import (
     crrcsim_entry,
     read_catalogue,
 )
-from e2vlib.real_meshes.meshes import POSES
+from e2vlib.experiments.real_meshes.meshes import POSES
 
-MAPPING_CSV = Path(__file__).resolve().parents[2] / "data_small" / "real" / "catalogue.csv"
+MAPPING_CSV = Path(__file__).resolve().parents[3] / "data_small" / "real" / "catalogue.csv"
 """The reviewed mapping from catalogue entries to the paper's categories."""
 MAPPING_FIELDS = ("id", "library", "entry_id", "name", "creator", "licence", "licence_file",
                   "category", "pose", "keep", "note")
@@ -88,7 +88,7 @@ def check_mapping(rows: Iterable[dict], where: str = "catalogue.csv") -> list[Ma
     >>> check_mapping([row, {**row, "category": "tables", "keep": "maybe"}])
     Traceback (most recent call last):
     ...
-    e2vlib.real_meshes.catalogue.RealMeshError: catalogue.csv: 3 bad row(s): line 3: duplicate \
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: catalogue.csv: 3 bad row(s): line 3: duplicate \
 id 'table_bs0_box'; line 3: category 'tables' is not one of the paper's (airplane, bench, \
 cabinet, car, chair, display, lamp, speaker, rifle, sofa, table, telephone, watercraft); \
 line 3: keep must be yes or no, got 'maybe'
@@ -188,7 +188,7 @@ def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE
     ... # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.real_meshes.catalogue.RealMeshError: 1 mapped entries are not in the installed \
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: 1 mapped entries are not in the installed \
 libraries (table_bs0_box); the package version differs from ...
     """
     mapped = list(mapped)

@@ -1,7 +1,7 @@
 """One catalogue entry's model as a ``trimesh.Trimesh`` in the project's frame.
 
 :func:`load_entry_mesh` reads an entry's OBJ from its ``.sh3f`` zip (:func:`obj_to_mesh`)
-or a crrcsim-data aircraft's AC3D file (:func:`~e2vlib.real_meshes.ac3d.ac3d_to_mesh`),
+or a crrcsim-data aircraft's AC3D file (:func:`~e2vlib.experiments.real_meshes.ac3d.ac3d_to_mesh`),
 turns it as Sweet Home 3D shows it (:func:`entry_transform`, :data:`SH3D_TO_ZUP`: z up,
 front -y), applies the reviewed pose (:data:`POSES`) and normalizes it (bounding box
 centred, longest side 1).
@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from e2vlib.real_meshes.ac3d import ac3d_to_mesh
-from e2vlib.real_meshes.catalogue import (
+from e2vlib.experiments.real_meshes.ac3d import ac3d_to_mesh
+from e2vlib.experiments.real_meshes.catalogue import (
     CRRCSIM,
     CRRCSIM_INSTALL_HINT,
     FURNITURE_DIR,
@@ -73,7 +73,7 @@ def obj_to_mesh(data: bytes, where: str = "OBJ") -> trimesh.Trimesh:
     >>> obj_to_mesh(b"v 0 0 0\\n", "empty.obj")
     Traceback (most recent call last):
     ...
-    e2vlib.real_meshes.catalogue.RealMeshError: empty.obj: the OBJ holds no triangles
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: empty.obj: the OBJ holds no triangles
     """
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type="obj", force="mesh", process=False,
@@ -100,7 +100,7 @@ def entry_transform(entry: CatalogueEntry, bounds: np.ndarray) -> np.ndarray:
     --------
     A unit cube shown 200 cm wide (x), 100 cm deep (z) and 50 cm high (y), then turned z up:
 
-    >>> from e2vlib.real_meshes.catalogue import CatalogueEntry
+    >>> from e2vlib.experiments.real_meshes.catalogue import CatalogueEntry
     >>> entry = CatalogueEntry("BlendSwap-CC-0.sh3f", 1, "Test#box", "Box", "", "", "box.obj",
     ...                        (200.0, 100.0, 50.0), None, "CC0-1.0")
     >>> entry_transform(entry, np.array([[0.0, 0, 0], [1, 1, 1]])).astype(int).tolist()
@@ -140,7 +140,7 @@ def load_entry_mesh(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE
 
     >>> import tempfile, zipfile
     >>> from pathlib import Path
-    >>> from e2vlib.real_meshes.catalogue import read_catalogue
+    >>> from e2vlib.experiments.real_meshes.catalogue import read_catalogue
     >>> folder = Path(tempfile.mkdtemp())
     >>> with zipfile.ZipFile(folder / "BlendSwap-CC-0.sh3f", "w") as zf:
     ...     zf.writestr("PluginFurnitureCatalog.properties", "id#1=Test#box\\nname#1=Box\\n"

@@ -3,7 +3,7 @@
 :func:`build_real_dataset` (``python -m e2vlib make-data --preset small --real-meshes
 data_small/real/catalogue.csv``, :data:`BUILD_COMMAND`) makes one test sample per kept row
 of the reviewed table with :func:`e2vlib.data.mesh_to_sample`, in a dataset folder that
-:class:`e2vlib.data.E2VDataset` reads; :mod:`e2vlib.real_study` scores models on it.
+:class:`e2vlib.data.E2VDataset` reads; :mod:`e2vlib.experiments.real_study` scores models on it.
 
 Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
@@ -14,9 +14,14 @@ import os
 from pathlib import Path
 
 from e2vlib import paper
-from e2vlib.real_meshes.catalogue import CRRCSIM, FURNITURE_DIR, INSTALL_HINT, installed_libraries
-from e2vlib.real_meshes.mapping import MAPPING_CSV, read_mapping, resolve
-from e2vlib.real_meshes.meshes import load_entry_mesh
+from e2vlib.experiments.real_meshes.catalogue import (
+    CRRCSIM,
+    FURNITURE_DIR,
+    INSTALL_HINT,
+    installed_libraries,
+)
+from e2vlib.experiments.real_meshes.mapping import MAPPING_CSV, read_mapping, resolve
+from e2vlib.experiments.real_meshes.meshes import load_entry_mesh
 
 BUILD_COMMAND = ("apt-get install -y sweethome3d-furniture crrcsim-data && "
                  "python -m e2vlib make-data "
@@ -119,7 +124,7 @@ installed; apt-get install sweethome3d-furniture
     import json
 
     from e2vlib.data import SampleSpec, run_jobs, write_manifest
-    from e2vlib.dataset_checks import DatasetError
+    from e2vlib.data.checks import DatasetError
     from e2vlib.files import atomic_path
 
     root = Path(root)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from e2vlib.real_meshes.catalogue import RealMeshError
+from e2vlib.experiments.real_meshes.catalogue import RealMeshError
 
 
 def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
@@ -35,7 +35,7 @@ def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
     >>> ac3d_to_mesh("OBJECT world", "plane.ac")
     Traceback (most recent call last):
     ...
-    e2vlib.real_meshes.catalogue.RealMeshError: plane.ac: not an AC3D file (no AC3D header)
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: plane.ac: not an AC3D file (no AC3D header)
     """
     lines = text.splitlines()
     if not lines or not lines[0].startswith("AC3D"):
