@@ -172,11 +172,11 @@ def draw_gallery(path: Path, categories=CHANGED, n: int = 6, cell=(260, 230)) ->
     import pyvista as pv
     from PIL import Image
 
-    from e2vlib import viz
+    from e2vlib import _headless, viz
     from e2vlib.files import atomic_path
 
     if hasattr(viz, "headless_opengl_window"):
-        viz.headless_opengl_window()
+        _headless.headless_opengl_window()
     rows = len(categories)
     plotter = pv.Plotter(
         off_screen=True,

@@ -12,19 +12,20 @@ Run: ``python bench/bench_training.py``; writes the "Training" section.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
+import psutil
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import machine, spread, timeit, write_section  # noqa: E402
 
 from e2vlib.data import E2VDataset  # noqa: E402
+from e2vlib.inputs import preload
 from e2vlib.model import build_e2v, load_checkpoint, read_checkpoint  # noqa: E402
-from e2vlib.train import bf16_is_fast, evaluate, preload, to_channels_last  # noqa: E402
+from e2vlib.train import bf16_is_fast, evaluate, to_channels_last  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data_small"
@@ -110,7 +111,7 @@ def speed_table(threads: int, **model) -> list[str]:
 
 
 def paper_forward(threads: int) -> tuple[float, float] | str:
-    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    total = psutil.virtual_memory().total
     if total < 16 * 2**30:
         return f"skipped: {total / 2**30:.0f} GiB of memory, 16 GiB wanted"
     code = PAPER_CHILD.format(threads=threads)

@@ -16,8 +16,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import torch
-import torch.nn.functional as F
+import lazy_loader
+
+# torch loads on first use, so reading LOSSES (the command line's choices) stays torch-free
+torch = lazy_loader.load("torch")
 
 LOSSES: dict[str, str] = {
     "bce": "mean binary cross-entropy on logits (the paper's loss)",
@@ -72,7 +74,7 @@ def bce(logits: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
     0.2201
     """
     _check(logits, targets)
-    return F.binary_cross_entropy_with_logits(logits, targets)
+    return torch.nn.functional.binary_cross_entropy_with_logits(logits, targets)
 
 
 def focal(logits: torch.Tensor, targets: torch.Tensor, gamma: float = FOCAL_GAMMA,
@@ -117,7 +119,7 @@ def focal(logits: torch.Tensor, targets: torch.Tensor, gamma: float = FOCAL_GAMM
         raise ValueError(f"gamma must be >= 0, got {gamma}")
     if alpha is not None and not 0 <= alpha <= 1:
         raise ValueError(f"alpha must be in [0, 1] or None, got {alpha}")
-    ce = F.binary_cross_entropy_with_logits(logits, targets, reduction="none")
+    ce = torch.nn.functional.binary_cross_entropy_with_logits(logits, targets, reduction="none")
     p = torch.sigmoid(logits)
     p_t = p * targets + (1 - p) * (1 - targets)
     loss = ce * (1 - p_t) ** gamma

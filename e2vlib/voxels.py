@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from scipy import ndimage
+from trimesh.exchange import binvox as trimesh_binvox
+from trimesh.voxel import runlength
 
 from e2vlib import paper
 from e2vlib.files import atomic_path
@@ -324,9 +326,10 @@ def read_binvox(path: str | os.PathLike) -> np.ndarray:
     ``data``) followed by run-length pairs of bytes ``(value, count)``. The runs list the
     voxels with **y running fastest, then z, then x** (flat index ``x*D*D + z*D + y``), so
     the decoded array is reshaped to ``(D, D, D)`` = ``[x, z, y]`` and its last two axes are
-    swapped. ``translate`` and ``scale`` are read but not returned (our grids always cover
-    ``[-0.5, 0.5]^3``). Note that ShapeNet's grids are in ShapeNet's y-up frame; see
-    :func:`shapenet_voxels_to_zup`.
+    swapped. trimesh's binvox exchange parses the header and expands the runs; this function
+    checks what it gets. ``translate`` and ``scale`` are read but not returned (our grids
+    always cover ``[-0.5, 0.5]^3``). Note that ShapeNet's grids are in ShapeNet's y-up frame;
+    see :func:`shapenet_voxels_to_zup`.
 
     Raises :class:`VoxelError` (a ValueError) naming the file for a bad header, a
     non-cubic grid, or run lengths that do not add up to ``D^3``; FileNotFoundError if missing.
@@ -334,78 +337,29 @@ def read_binvox(path: str | os.PathLike) -> np.ndarray:
     Introduced in notebooks/04_building_the_dataset.ipynb.
     """
     path = Path(path)
-    raw = path.read_bytes()
-    header: dict[str, list[str]] = {}
-    pos = 0
-    first = True
-    while True:
-        end = raw.find(b"\n", pos)
-        if end < 0:
-            raise VoxelError(f"{path}: binvox header ends before the 'data' line; file truncated?")
-        line = raw[pos:end].strip()
-        pos = end + 1
+    with open(path, "rb") as file:
         try:
-            text = line.decode("ascii")
-        except UnicodeDecodeError as err:
-            raise VoxelError(f"{path}: binvox header is not ASCII; not a binvox file") from err
-        if first:
-            if not text.startswith("#binvox"):
-                raise VoxelError(f"{path}: does not start with '#binvox'; not a binvox file")
-            first = False
-            continue
-        if text == "data":
-            break
-        if text:
-            key, *values = text.split()
-            header[key] = values
-        if len(header) > 16:
-            raise VoxelError(f"{path}: binvox header has no 'data' line")
-    try:
-        dims = tuple(int(v) for v in header["dim"])
-    except (KeyError, ValueError) as err:
-        raise VoxelError(f"{path}: binvox header lacks a valid 'dim D D D' line") from err
+            parsed = trimesh_binvox.parse_binvox(file)
+        except ValueError as err:  # no magic word, no 'data' line, a non-number in a field
+            raise VoxelError(f"{path}: not a readable binvox header ({err}); the file is "
+                             "truncated or not a binvox file") from err
+    dims = tuple(int(d) for d in parsed.shape)
     if len(dims) != 3 or min(dims) <= 0:
-        raise VoxelError(f"{path}: binvox dim must be three positive ints, got {dims}")
+        raise VoxelError(f"{path}: binvox 'dim' must be three positive ints, got {dims}")
     if len(set(dims)) != 1:
         raise VoxelError(f"{path}: only cubic binvox grids are supported, got dim {dims}")
-    size = dims[0] * dims[1] * dims[2]
-    body = np.frombuffer(raw, dtype=np.uint8, offset=pos)
-    if body.size % 2:
-        raise VoxelError(
-            f"{path}: binvox data has an odd number of bytes ({body.size}); file truncated?"
-        )
-    values = body[0::2]
-    counts = body[1::2].astype(np.int64)
-    total = int(counts.sum())
-    if total != size:
-        raise VoxelError(
-            f"{path}: binvox run lengths add up to {total} voxels but dim {dims} needs {size}; "
-            "file truncated or corrupt"
-        )
-    if np.any(values > 1):
+    runs = parsed.rle_data
+    if runs.size % 2:
+        raise VoxelError(f"{path}: binvox data has an odd number of bytes ({runs.size}); "
+                         "file truncated?")
+    total = int(runs[1::2].sum(dtype=np.int64))
+    if total != dims[0] ** 3:
+        raise VoxelError(f"{path}: binvox run lengths add up to {total} voxels but dim {dims} "
+                         f"needs {dims[0] ** 3}; file truncated or corrupt")
+    if np.any(runs[0::2] > 1):
         raise VoxelError(f"{path}: binvox run values must be 0 or 1; file corrupt")
-    flat = np.repeat(values.astype(bool), counts)
+    flat = runlength.rle_to_dense(runs, dtype=bool)
     return np.ascontiguousarray(flat.reshape(dims).transpose(0, 2, 1))
-
-
-def _run_lengths(flat: np.ndarray) -> bytes:
-    """binvox run-length pairs (value, count <= 255) of a 1-D bool array."""
-    if flat.size == 0:
-        return b""
-    change = np.flatnonzero(flat[1:] != flat[:-1]) + 1
-    starts = np.concatenate([[0], change])
-    lengths = np.diff(np.concatenate([starts, [flat.size]]))
-    run_values = flat[starts].astype(np.uint8)
-    # split runs longer than 255 into chunks of at most 255
-    n_chunks = (lengths + 254) // 255
-    vals = np.repeat(run_values, n_chunks)
-    cnt = np.full(int(n_chunks.sum()), 255, dtype=np.int64)
-    last = np.cumsum(n_chunks) - 1
-    cnt[last] = lengths - 255 * (n_chunks - 1)
-    pairs = np.empty(2 * len(vals), dtype=np.uint8)
-    pairs[0::2] = vals
-    pairs[1::2] = cnt
-    return pairs.tobytes()
 
 
 def write_binvox(
@@ -418,8 +372,10 @@ def write_binvox(
 
     ``translate`` and ``scale`` go into the header; binvox readers map voxel ``i`` to
     ``translate + (i + 0.5) / D * scale``, so the defaults describe our cube
-    ``[-0.5, 0.5]^3``. The file is written to a temporary file next to ``path`` and then
-    renamed, so an existing file is never left half-written. The input is not modified.
+    ``[-0.5, 0.5]^3``. The runs (at most 255 voxels each) come from trimesh's run-length
+    encoder and the bytes from its binvox exchange. The file is written to a temporary file
+    next to ``path`` and then renamed, so an existing file is never left half-written. The
+    input is not modified.
 
     Introduced in notebooks/04_building_the_dataset.ipynb.
     """
@@ -429,12 +385,9 @@ def write_binvox(
         raise VoxelError(f"translate must be three finite floats, got {translate!r}")
     if not np.isfinite(scale) or scale <= 0:
         raise VoxelError(f"scale must be a positive float, got {scale!r}")
-    d = v.shape[0]
-    header = (
-        f"#binvox 1\ndim {d} {d} {d}\ntranslate {t[0]!r} {t[1]!r} {t[2]!r}\n"
-        f"scale {float(scale)!r}\ndata\n"
-    ).encode("ascii")
-    body = _run_lengths(v.transpose(0, 2, 1).ravel())
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(header + body)
+    runs = runlength.dense_to_rle(v.transpose(0, 2, 1).ravel().astype(np.uint8), dtype=np.uint8)
+    runs = runs.reshape(-1, 2)
+    runs = runs[runs[:, 1] > 0].ravel()  # trimesh splits a run of exactly 255 as 255 + 0
+    data = trimesh_binvox.binvox_bytes(runs, v.shape, translate=t, scale=float(scale))
+    with atomic_path(Path(path)) as tmp:
+        tmp.write_bytes(data)

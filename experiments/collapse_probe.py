@@ -46,17 +46,13 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
     """The per-step trace of the first ``epochs`` epochs of one study run (with another
     recipe or model preset when given)."""
     spec = experiments.STUDIES[study]
-    protocol = {**spec.protocol(), **spec.configs[config]}
-    if recipe is not None:
-        protocol["recipe"] = recipe
-    if preset is not None:
-        protocol["preset"] = preset
-    if loss is not None:
-        protocol["loss"] = loss
-    torch.set_num_threads(int(protocol["threads"]))
+    changes = {"recipe": recipe, "preset": preset, "loss": loss}
+    protocol = spec.protocol().updated(
+        {**spec.configs[config], **{k: v for k, v in changes.items() if v is not None}})
+    torch.set_num_threads(protocol.threads)
     train = experiments.load_split(protocol, "train")
     val = experiments.load_split(protocol, "val")
-    model = build_e2v(protocol["preset"], seed=seed, input_shape=tuple(train.frames.shape[-3:]))
+    model = build_e2v(protocol.preset, seed=seed, input_shape=tuple(train.frames.shape[-3:]))
     from e2vlib.train import get_recipe
 
     if head_prior and get_recipe(protocol["recipe"]).output_prior:
@@ -107,8 +103,8 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         try:
-            fit(model, train, val, tmp, recipe=protocol["recipe"],
-                epochs=experiments.epochs_of(protocol), seed=seed, loss=protocol["loss"],
+            fit(model, train, val, tmp, recipe=protocol.recipe,
+                epochs=protocol.run_epochs, seed=seed, loss=protocol.loss,
                 progress=False, on_step=on_step, on_epoch=on_epoch, **overrides)
         except _Enough:
             pass
@@ -116,12 +112,12 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
 
     from e2vlib.train import get_recipe
 
-    return {"study": study, "config": config, "seed": seed, "recipe": protocol["recipe"],
-            "recipe_fields": asdict(get_recipe(protocol["recipe"])),
-            "head_prior": head_prior, "leaky_bridge": leaky_bridge, "preset": protocol["preset"],
-            "loss": protocol["loss"], "head_scale": head_scale,
+    return {"study": study, "config": config, "seed": seed, "recipe": protocol.recipe,
+            "recipe_fields": asdict(get_recipe(protocol.recipe)),
+            "head_prior": head_prior, "leaky_bridge": leaky_bridge, "preset": protocol.preset,
+            "loss": protocol.loss, "head_scale": head_scale,
             "head_p": head_p,
-            "epochs_watched": epochs, "protocol": protocol,
+            "epochs_watched": epochs, "protocol": protocol.to_dict(),
             "history": history, "steps": steps,
             "seconds": round(time.perf_counter() - started, 1),
             "cpu": experiments.cpu_name(), "torch": torch.__version__}
@@ -154,7 +150,7 @@ def main() -> None:
     args = parser.parse_args()
     out = Path(args.out)
     records = json.loads(out.read_text()) if out.exists() else {}
-    recipe = args.recipe or experiments.STUDIES[args.study].protocol()["recipe"]
+    recipe = args.recipe or experiments.STUDIES[args.study].protocol().recipe
     key = (f"{args.study}/{args.config}/seed{args.seed}/{recipe}/{args.epochs}ep"
            + ("/head_prior" if args.head_prior else "")
            + ("/leaky_bridge" if args.leaky_bridge else "")

@@ -207,7 +207,7 @@ def test_build_config_refuses_bad_settings_by_name(change, problem):
 
 
 def test_a_paper_windows_build_stores_eq5_frames(tmp_path):
-    from e2vlib.data import events_to_frames
+    from e2vlib.inputs import orbit_input
     from e2vlib.io import load_events
 
     config = BuildConfig(categories=("chair",), per_category=3, resolution=32, frame_size=16,
@@ -216,7 +216,7 @@ def test_a_paper_windows_build_stores_eq5_frames(tmp_path):
     ds = E2VDataset(tmp_path, "test")
     assert ds.config["windows"] == "paper"
     events, sensor = load_events(ds.raw_events_path(0))
-    expected = events_to_frames(events, sensor, 16, t0_us=0, windows="paper")
+    expected = orbit_input(events, sensor, 16, t0_us=0, windows="paper")
     np.testing.assert_array_equal(ds.arrays(0)[0], expected)
     assert ds.arrays(0)[0][: int(expected.any(axis=(1, 2)).sum())].any(axis=(1, 2)).all()
 
@@ -243,3 +243,25 @@ def test_anti_aliasing_is_a_build_setting_that_old_configs_read_as_ssaa():
     events = simulate_events(video, t_us, contrast_pos=0.2, contrast_neg=0.2, seed=1)
     np.testing.assert_array_equal(fast.events, events)
     assert not np.array_equal(fast.frames, smooth.frames)
+
+
+def test_run_jobs_gives_the_same_answers_in_this_process_and_in_workers():
+    from e2vlib.data.build import run_jobs
+
+    jobs = ["3", "1", "4", "1", "5"]
+    one = run_jobs(int, jobs, workers=1, desc="parsing", unit="number", progress=False)
+    two = run_jobs(int, jobs, workers=2, desc="parsing", unit="number", progress=False)
+    assert one == two == [3, 1, 4, 1, 5]  # in job order, whichever worker finished first
+    assert run_jobs(int, [], workers=2, desc="parsing", unit="number", progress=False) == []
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_run_jobs_names_the_failing_job(workers):
+    from e2vlib.data.build import JobError, run_jobs
+
+    with pytest.raises(JobError, match=r"^sample chair_0002 failed: ValueError: invalid "
+                                       r"literal for int\(\) with base 10: 'x'$"):
+        run_jobs(int, ["1", "x"], workers, "parsing", "sample", False,
+                 names=["sample chair_0001", "sample chair_0002"])
+    with pytest.raises(ValueError, match="2 jobs but 1 names"):
+        run_jobs(int, ["1", "2"], workers, "parsing", "sample", False, names=["one"])

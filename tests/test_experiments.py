@@ -13,13 +13,12 @@ from e2vlib.experiments import (
     canonical_protocol,
     command_line,
     compare,
-    epochs_of,
     grey_input,
     load_split,
     run_study,
     summarize,
-    train_counts,
 )
+from e2vlib.experiments.protocol import Protocol
 
 RECORD_KEYS = {"config", "params", "seed", "metrics", "best_epoch", "train_seconds", "device",
                "commit"}
@@ -83,15 +82,16 @@ def test_unknown_study_and_config_are_named():
 
 
 def test_inputs_follow_the_protocol(tiny_events_dataset):
-    protocol = {**STUDIES["time"].protocol(quick=True), **_overrides(tiny_events_dataset),
-                "n_frames": 10, "dt_us": 50_000, "representation": "count"}
+    protocol = STUDIES["time"].protocol(quick=True).updated(
+        {**_overrides(tiny_events_dataset), "n_frames": 10, "dt_us": 50_000,
+         "representation": "count"})
     train = load_split(protocol, "train")
     assert tuple(train.frames.shape[1:]) == (10, 32, 32)
     assert train.config["n_frames"] == 10 and train.config["representation"] == "count"
-    stored = load_split({**protocol, "representation": "binary", "n_frames": 100,
-                         "dt_us": 5000}, "train")
-    computed = load_split({**protocol, "representation": "binary_paper", "n_frames": 100,
-                           "dt_us": 5000}, "train")
+    stored = load_split(protocol.updated({"representation": "binary", "n_frames": 100,
+                                          "dt_us": 5000}), "train")
+    computed = load_split(protocol.updated({"representation": "binary_paper",
+                                            "n_frames": 100, "dt_us": 5000}), "train")
     assert stored.frames.shape == computed.frames.shape == (2, 100, 32, 32)
 
 
@@ -150,9 +150,9 @@ def test_a_run_with_the_same_full_protocol_is_reused_and_a_fresh_one_agrees(
 def test_grey_inputs_are_the_stored_grey_video_scaled_to_one(tiny_events_dataset):
     from e2vlib.data import E2VDataset, load_grey_video
 
-    protocol = {**STUDIES["input"].protocol(quick=True), **_overrides(tiny_events_dataset)}
-    video = load_split({**protocol, **STUDIES["input"].configs["grey_video"]}, "test")
-    single = load_split({**protocol, **STUDIES["input"].configs["grey_single"]}, "test")
+    protocol = STUDIES["input"].protocol(quick=True).updated(_overrides(tiny_events_dataset))
+    video = load_split(protocol.updated(STUDIES["input"].configs["grey_video"]), "test")
+    single = load_split(protocol.updated(STUDIES["input"].configs["grey_single"]), "test")
     ids = E2VDataset(tiny_events_dataset, "test").ids
     grey = load_grey_video(tiny_events_dataset, ids[0]).astype(np.float32)  # (100, 32, 32)
     assert video.frames.shape == (2, 100, 32, 32) and video.frames.dtype == torch.float16
@@ -195,10 +195,11 @@ def test_noisy_events_are_read_for_the_noisy_test_split_only(tiny_events_dataset
     # the same objects and seeds as the clean build; only the test split is built
     assert sorted(p.name for p in (noisy_test_split / "samples").iterdir()) == sorted(
         f"{i}.npz" for i in test_ids)
-    protocol = {**STUDIES["noise"].protocol(quick=True), **_overrides(tiny_events_dataset),
-                "noise_events": str(tiny_events_dataset.parent / "noise_{level}")}
+    protocol = STUDIES["noise"].protocol(quick=True).updated(
+        {**_overrides(tiny_events_dataset),
+         "noise_events": str(tiny_events_dataset.parent / "noise_{level}")})
     clean = load_split(protocol, "test")
-    noisy = load_split({**protocol, "noise": "high"}, "test")
+    noisy = load_split(protocol.updated({"noise": "high"}), "test")
     assert clean.ids == noisy.ids
     np.testing.assert_array_equal(clean.voxels.numpy(), noisy.voxels.numpy())
     # 5 Hz of shot noise on 64 x 64 pixels over 0.5 s: about 10,000 more events per object
@@ -208,9 +209,9 @@ def test_noisy_events_are_read_for_the_noisy_test_split_only(tiny_events_dataset
     assert n_noisy - n_clean > 5000
     assert noisy.frames.float().mean() > clean.frames.float().mean()
     with pytest.raises(ValueError, match="only the splits"):
-        load_split({**protocol, "noise": "high"}, "train")
+        load_split(protocol.updated({"noise": "high"}), "train")
     with pytest.raises(FileNotFoundError, match="--noise low"):
-        load_split({**protocol, "noise": "low"}, "test")
+        load_split(protocol.updated({"noise": "low"}), "test")
 
 
 def test_the_noise_study_scores_one_model_at_every_test_noise_level(
@@ -235,20 +236,20 @@ def extra_objects(tiny_events_dataset):
 
 def test_train_scale_takes_the_first_objects_then_extra_ones_at_equal_steps(
         tiny_events_dataset, extra_objects):
-    protocol = {**STUDIES["data_scale"].protocol(quick=True), **_overrides(tiny_events_dataset),
-                "extra": str(extra_objects)}
+    protocol = STUDIES["data_scale"].protocol(quick=True).updated(
+        {**_overrides(tiny_events_dataset), "extra": str(extra_objects)})
+    four = protocol.updated({"train_scale": 4})
     base = load_split(protocol, "train")
-    assert train_counts(protocol) == {"chair": 1, "table": 1}
-    bigger = load_split({**protocol, "train_scale": 4}, "train")
-    assert train_counts({**protocol, "train_scale": 4}) == {"chair": 4, "table": 4}
+    assert protocol.train_counts() == {"chair": 1, "table": 1}
+    bigger = load_split(four, "train")
+    assert four.train_counts() == {"chair": 4, "table": 4}
     assert len(bigger) == 8 and bigger.ids[:2] == base.ids
     assert len(set(bigger.ids)) == 8 and bigger.categories.count("chair") == 4
     np.testing.assert_array_equal(bigger.frames[:2].numpy(), base.frames.numpy())
-    assert load_split(protocol, "test").ids == load_split({**protocol, "train_scale": 4},
-                                                          "test").ids
+    assert load_split(protocol, "test").ids == load_split(four, "test").ids
     with pytest.raises(ValueError, match="too few objects"):
-        load_split({**protocol, "train_scale": 6}, "train")  # 1 + 3 extra < 6 per category
-    assert [epochs_of({"epochs": 12, "train_scale": s}) for s in (0.25, 0.5, 1, 2, 4)] == [
+        load_split(protocol.updated({"train_scale": 6}), "train")  # 1 + 3 extra < 6 each
+    assert [Protocol(train_scale=s, extra="x").run_epochs for s in (0.25, 0.5, 1, 2, 4)] == [
         48, 24, 12, 6, 3]
 
 
@@ -263,17 +264,18 @@ def test_data_scale_1x_is_the_base_run_and_is_reused(tiny_events_dataset, extra_
     assert one["reused_from"] == "representation/binary" and "reused_from" not in two
     assert one["n_train"] == 2 and one["steps"] == 1  # 2 objects, one batch of 16
     assert two["n_train"] == 4 and two["epochs"] == 1  # quick: 1 epoch / 2 rounds to 1
-    assert canonical_protocol({"a": 1, "train_scale": 1, "extra": "x"}) == {"a": 1}
+    assert canonical_protocol({"epochs": 3, "train_scale": 1, "extra": "x"}) == (
+        canonical_protocol(Protocol(epochs=3)))
 
 
 def test_only_runs_of_the_same_cpu_model_are_copied(tmp_path):
     from e2vlib.experiments import find_same_run
 
-    protocol = {"epochs": 12, "seed_free": True}
+    protocol = Protocol(epochs=5)
     runs = [{"config": "a", "params": {}, "seed": 0, "device": "cpu", "metrics": {}, "cpu": c}
             for c in ("AMD EPYC", None)]
-    (tmp_path / "other.json").write_text(json.dumps({"study": "other", "protocol": protocol,
-                                                     "runs": runs}))
+    (tmp_path / "other.json").write_text(json.dumps(
+        {"study": "other", "protocol": protocol.to_dict(), "runs": runs}))
     found = find_same_run(tmp_path, protocol, 0, "cpu", cpu="AMD EPYC")
     assert found["reused_from"] == "other/a" and found["cpu"] == "AMD EPYC"
     assert find_same_run(tmp_path, protocol, 0, "cpu", cpu="Intel Xeon") is None
@@ -298,7 +300,7 @@ def test_the_render_study_scores_each_model_on_both_kinds_of_render(tiny_events_
     assert {"none:iou@0.3", "none:fscore@1%"} <= set(metrics)
     assert 0 <= metrics["none:iou@0.3"] <= 1
     # the same objects and labels, other frames
-    ssaa, none = (load_split({**STUDIES["render"].protocol(quick=True), "data": str(root)},
+    ssaa, none = (load_split(STUDIES["render"].protocol(quick=True).updated({"data": str(root)}),
                              "test") for root in (tiny_events_dataset, plain))
     assert ssaa.ids == none.ids
     np.testing.assert_array_equal(ssaa.voxels.numpy(), none.voxels.numpy())
@@ -317,7 +319,7 @@ def test_the_render_study_names_the_command_that_builds_its_data(monkeypatch, tm
     missing = str(tmp_path / "not_built")
     monkeypatch.setitem(experiments.DATA_COMMANDS, missing, "python -m e2vlib make-data X")
     with pytest.raises(FileNotFoundError, match="make-data X"):
-        load_split({**STUDIES["render"].protocol(quick=True), "data": missing}, "test")
+        load_split(STUDIES["render"].protocol(quick=True).updated({"data": missing}), "test")
 
 
 def test_cache_commands_build_data_smalls_objects_with_the_stated_changes():
@@ -344,17 +346,17 @@ def test_cache_commands_build_data_smalls_objects_with_the_stated_changes():
 def test_the_stability_norm_even_and_capstone_studies_share_their_128px_runs():
     stability, capstone = STUDIES["stability_norm_even"], STUDIES["capstone"]
     for study in (stability, capstone):
-        assert study.protocol()["recipe"] == "tiny_step_even"
-    same = [canonical_protocol({**s.protocol(), **s.configs["128px"]})
+        assert study.protocol().recipe == "tiny_step_even"
+    same = [canonical_protocol(s.protocol().updated(s.configs["128px"]))
             for s in (stability, capstone)]
     assert same[0] == same[1] and same[0]["frame_size"] == 128
     assert same[0]["preset"] == "tiny_norm"
     # the first stability study keeps the recipe its records were made with
-    assert STUDIES["stability"].protocol()["recipe"] == "tiny_step"
+    assert STUDIES["stability"].protocol().recipe == "tiny_step"
     # the base recipe of every earlier study is untouched: its records stay comparable
-    assert STUDIES["time"].protocol()["recipe"] == "tiny"
+    assert STUDIES["time"].protocol().recipe == "tiny"
     assert capstone.configs["bce_dice"] == {"loss": "bce_dice"}
-    assert epochs_of({**capstone.protocol(), **capstone.configs["30_epochs"]}) == 30
+    assert capstone.protocol().updated(capstone.configs["30_epochs"]).run_epochs == 30
 
 
 def test_a_run_below_the_collapse_line_is_called_collapsed():
@@ -390,7 +392,8 @@ def test_kept_checkpoints_are_the_recorded_models(tiny_events_dataset, tmp_path)
     assert run["checkpoint"] == (kept / "loss" / "bce_seed3.pt").as_posix()
     assert results["command"].endswith(f"--seeds 3 --quick --keep-checkpoints {kept}")
     assert [p.name for p in (kept / "loss").iterdir()] == ["bce_seed3.pt"]  # no temp left
-    test = load_split({**results["protocol"], **run["params"]}, "test", False)
+    test = load_split(Protocol.from_dict(results["protocol"]).updated(run["params"]), "test",
+                      False)
     probabilities = predict(load_checkpoint(run["checkpoint"]), test.frames, "cpu")
     again = score_split(probabilities, test.voxels, test.categories)["overall"]["iou@0.3"]
     assert abs(again - run["metrics"]["iou@0.3"]) < 1e-9

@@ -140,7 +140,7 @@ def test_events_only_method_on_a_box(box_events):
 def test_score_occupancy_keys_and_perfect_score():
     label = box_label()
     scores = G.score_occupancy(label, label, n_points=1024)
-    # the keys of e2vlib.train.score_predictions (train.METRIC_KEYS; not imported: torch)
+    # the keys of e2vlib.train.score_predictions (metrics.METRIC_KEYS; not imported: torch)
     assert tuple(scores) == ("iou@0.2", "iou@0.3", "iou@0.4", "iou@0.5", "fscore@1%",
                              "fscore@20%")
     assert all(value == 1.0 for value in scores.values())

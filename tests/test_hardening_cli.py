@@ -9,7 +9,8 @@ import time
 import numpy as np
 import pytest
 
-from e2vlib.data import BuildConfig, build_dataset, events_to_model_input, save_sample
+from e2vlib.data import BuildConfig, build_dataset, save_sample
+from e2vlib.inputs import recording_input
 from e2vlib.events import EventError, make_events
 from e2vlib.io import save_events
 from e2vlib.model import build_e2v, save_checkpoint
@@ -72,8 +73,8 @@ def test_events_to_model_input_needs_one_event_per_frame():
     events = make_events(np.arange(10), np.zeros(10), np.arange(10) * 1000, np.ones(10))
     with pytest.raises(EventError, match="10 event\\(s\\) cannot make the model's input: its "
                                          "11 frames of 1000 us need at least 11 events"):
-        events_to_model_input(events, (16, 16), 8, n_frames=11, dt_us=1000)
-    frames = events_to_model_input(events, (16, 16), 8, n_frames=10, dt_us=1000)
+        recording_input(events, (16, 16), 8, n_frames=11, dt_us=1000)
+    frames = recording_input(events, (16, 16), 8, n_frames=10, dt_us=1000)
     assert frames.shape == (10, 8, 8) and frames.sum() == 10  # one event in each frame
 
 

@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pytest
 
-from e2vlib import data
 from e2vlib.data import load_sample
 from e2vlib.events import EventError, make_events
 from e2vlib.experiments import explore
@@ -19,9 +18,7 @@ from e2vlib.frames import (
 )
 from e2vlib.inputs import (
     REPRESENTATIONS,
-    events_to_frames,
     events_to_input,
-    events_to_model_input,
     input_channels,
     orbit_input,
     recording_input,
@@ -102,8 +99,8 @@ def test_unknown_representation_is_named():
 # --- one home for events -> model input: the old four give what they gave (issue 24) ------------
 #
 # The reference functions below are the bodies of the four old functions as they were before
-# inputs.orbit_input / recording_input replaced them (data.events_to_frames,
-# data.events_to_model_input, inputs.events_to_input, explore._frames_at), written out with
+# inputs.orbit_input / recording_input replaced them (older frame functions of data,
+# inputs.events_to_input, explore._frames_at), written out with
 # frames.accumulate / downsample; the new names and the kept old ones must give the same
 # arrays, dtypes and shapes.
 
@@ -187,10 +184,8 @@ def test_orbit_input_gives_the_old_events_to_frames(stream, windows, frame_size)
         old = _old_events_to_frames(events, (width, height), frame_size, t0, 12, 5000, windows)
         _same(orbit_input(events, (width, height), frame_size, n_frames=12, dt_us=5000,
                           t0_us=t0, windows=windows), old)
-        _same(events_to_frames(events, (width, height), frame_size, t0_us=t0, n_frames=12,
-                               dt_us=5000, windows=windows), old)
-        _same(data.events_to_frames(events, (width, height), frame_size, t0_us=t0,
-                                    n_frames=12, dt_us=5000, windows=windows), old)
+        _same(orbit_input(events, (width, height), frame_size, t0_us=t0, n_frames=12,
+                          dt_us=5000, windows=windows), old)
 
 
 @pytest.mark.parametrize("stream", list(STREAMS))
@@ -214,10 +209,8 @@ def test_recording_input_gives_the_old_events_to_model_input(stream, windows, fr
     old = _old_events_to_model_input(events, (width, height), frame_size, 12, 5000, windows)
     _same(recording_input(events, (width, height), frame_size, n_frames=12, dt_us=5000,
                           windows=windows), old)
-    _same(events_to_model_input(events, (width, height), frame_size, n_frames=12, dt_us=5000,
-                                windows=windows), old)
-    _same(data.events_to_model_input(events, (width, height), frame_size, n_frames=12,
-                                     dt_us=5000, windows=windows), old)
+    _same(recording_input(events, (width, height), frame_size, n_frames=12, dt_us=5000,
+                          windows=windows), old)
 
 
 @pytest.mark.parametrize("stream", list(STREAMS) + list(NON_SQUARE))
@@ -237,12 +230,10 @@ def test_recording_input_on_a_square_sensor_is_orbit_input_from_the_first_event(
                           t0_us=int(events["t"][0])))
 
 
-def test_the_builder_and_the_old_names_share_one_function():
+def test_the_builder_and_the_scan_reader_share_one_function():
     import e2vlib.data.samples
     import e2vlib.data.synthevox3d
 
-    assert data.events_to_frames is events_to_frames
-    assert data.events_to_model_input is events_to_model_input
     assert e2vlib.data.samples.orbit_input is orbit_input
     assert e2vlib.data.synthevox3d.orbit_input is orbit_input
 

@@ -148,7 +148,7 @@ def test_category_means():
 
 
 def test_summarize_matches_the_evaluate_layout():
-    from e2vlib.train import format_table
+    from e2vlib.metrics import format_table
 
     scores = {"iou@0.3": np.array([0.25, 0.75, 0.9]), "fscore@1%": torch.tensor([0.0, 1.0, 0.5])}
     table = summarize(scores, ["chair", "chair", "lamp"])

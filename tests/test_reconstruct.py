@@ -10,8 +10,13 @@ import torch
 
 from e2vlib.data import load_sample
 from e2vlib.events import make_events
-from e2vlib.experiments.reconstruct import InputError, Reconstruction, input_config, reconstruct
-from e2vlib.inputs import events_to_model_input
+from e2vlib.experiments.reconstruct import (
+    InputError,
+    Reconstruction,
+    checkpoint_build_config,
+    reconstruct,
+)
+from e2vlib.inputs import recording_input
 from e2vlib.io import load_events, save_events
 from e2vlib.metrics import iou
 from e2vlib.model import build_e2v, load_checkpoint, read_checkpoint, save_checkpoint
@@ -67,7 +72,7 @@ def test_events_from_a_file_or_an_array_give_the_same_answer():
     events, sensor_size = load_events(path)
     from_array = reconstruct(read_checkpoint(TINY), events=events, sensor_size=sensor_size,
                              device="cpu")
-    frames = events_to_model_input(events, sensor_size, 64, n_frames=100, dt_us=5000)
+    frames = recording_input(events, sensor_size, 64, n_frames=100, dt_us=5000)
     for result in (from_file, from_array):
         np.testing.assert_array_equal(result.frames, frames)
         assert result.voxels is None and result.iou() is None
@@ -78,8 +83,8 @@ def test_events_from_a_file_or_an_array_give_the_same_answer():
     assert (frames == stored).mean() > 0.99
 
 
-def test_input_config_follows_the_checkpoints_data_config():
-    config = input_config(read_checkpoint(TINY), load_checkpoint(TINY))
+def test_checkpoint_build_config_follows_the_checkpoints_data_config():
+    config = checkpoint_build_config(read_checkpoint(TINY), load_checkpoint(TINY))
     assert (config.resolution, config.frame_size, config.oversample, config.n_frames,
             config.dt_us, config.windows) == (128, 64, 3, 100, 5000, "fixed")
     assert config.per_category == 1

@@ -11,22 +11,9 @@ from e2vlib import paper
 from e2vlib.losses import make_loss
 from e2vlib.model import CheckpointError, build_e2v, load_checkpoint, read_checkpoint
 from e2vlib.model.checkpoint import slim_checkpoint
-from e2vlib.train import (
-    COSINE_FLOOR,
-    RECIPES,
-    Recipe,
-    TensorSet,
-    bf16_is_fast,
-    evaluate,
-    fit,
-    format_table,
-    lr_at_step,
-    lr_schedule,
-    predict,
-    resolve_device,
-    score_predictions,
-    to_channels_last,
-)
+from e2vlib.train import COSINE_FLOOR, RECIPES, Recipe, bf16_is_fast, evaluate, fit, lr_at_step, lr_schedule, predict, resolve_device, to_channels_last
+from e2vlib.inputs import TensorSet
+from e2vlib.metrics import format_table, score_predictions
 
 SHAPE = (8, 16, 16)
 

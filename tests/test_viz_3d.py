@@ -225,10 +225,10 @@ def test_plotters_made_headless_print_no_x_server_warning(capfd):
 
 def test_headless_opengl_window_respects_the_user_and_a_display(monkeypatch):
     monkeypatch.setenv("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
-    assert viz.headless_opengl_window() == "vtkOSOpenGLRenderWindow"  # the user's choice
+    assert _headless.headless_opengl_window() == "vtkOSOpenGLRenderWindow"  # the user's choice
     monkeypatch.delenv("VTK_DEFAULT_OPENGL_WINDOW")
     monkeypatch.setenv("DISPLAY", ":0")
-    assert viz.headless_opengl_window() is None  # a display: VTK chooses (X)
+    assert _headless.headless_opengl_window() is None  # a display: VTK chooses (X)
     assert "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ
 
 
@@ -421,8 +421,8 @@ def test_export_reconstruction_subset_and_errors(tmp_path):
 def test_trame_never_downloads_its_webassembly_bundle(monkeypatch):
     pytest.importorskip("trame_vtklocal")
     monkeypatch.setenv("VTK_WASM_DIR_OVERRIDE", "/my/own/wasm")
-    assert viz.offline_wasm_bundle() == "/my/own/wasm"  # the user's choice stands
+    assert _headless.offline_wasm_bundle() == "/my/own/wasm"  # the user's choice stands
     monkeypatch.delenv("VTK_WASM_DIR_OVERRIDE")
-    chosen = viz.offline_wasm_bundle()  # this machine has no bundle on disk
+    chosen = _headless.offline_wasm_bundle()  # this machine has no bundle on disk
     assert chosen is not None and os.environ["VTK_WASM_DIR_OVERRIDE"] == chosen
     assert os.path.isdir(chosen)

@@ -205,12 +205,47 @@ def test_read_hand_made_file_pins_axis_order(tmp_path):
     assert list(zip(*np.nonzero(grid), strict=True)) == [(2, 0, 1)]
 
 
+def _header_and_runs(raw: bytes) -> tuple[list[bytes], bytes]:
+    """Header lines without comments, and the run bytes after the 'data' line."""
+    head, runs = raw.split(b"\ndata\n", 1)
+    return [line for line in head.split(b"\n") if not line.startswith(b"# ")], runs
+
+
 def test_write_matches_hand_made_bytes(tmp_path):
     grid = np.zeros((3, 3, 3), dtype=bool)
     grid[2, 0, 1] = True
     path = tmp_path / "one.binvox"
     write_binvox(path, grid)
-    assert path.read_bytes() == HEADER_3 + bytes([0, 21, 1, 1, 0, 5])
+    assert _header_and_runs(path.read_bytes()) == _header_and_runs(
+        HEADER_3 + bytes([0, 21, 1, 1, 0, 5]))
+
+
+def _old_writer_bytes(grid: np.ndarray) -> bytes:
+    """The bytes the earlier hand-written writer produced: header, then runs of <= 255."""
+    d = grid.shape[0]
+    flat = grid.transpose(0, 2, 1).ravel()
+    starts = np.concatenate([[0], np.flatnonzero(flat[1:] != flat[:-1]) + 1])
+    runs = []
+    for start, stop in zip(starts, [*starts[1:], flat.size], strict=True):
+        length = int(stop - start)
+        while length:
+            runs += [int(flat[start]), min(length, 255)]
+            length -= min(length, 255)
+    header = f"#binvox 1\ndim {d} {d} {d}\ntranslate -0.5 -0.5 -0.5\nscale 1.0\ndata\n"
+    return header.encode("ascii") + bytes(runs)
+
+
+@pytest.mark.parametrize("density", [0.0, 0.02, 0.5, 1.0])
+def test_files_of_the_earlier_writer_read_the_same_and_runs_match(tmp_path, density):
+    # runs of exactly 510 and 255 empty voxels, which must not be split as 255 + 0
+    flat = np.random.default_rng(7).random(32**3) < density  # in file order [x, z, y]
+    flat[:510], flat[510], flat[511:766], flat[766] = False, True, False, True
+    grid = flat.reshape(32, 32, 32).transpose(0, 2, 1)
+    (tmp_path / "old.binvox").write_bytes(_old_writer_bytes(grid))
+    np.testing.assert_array_equal(read_binvox(tmp_path / "old.binvox"), grid)
+    write_binvox(tmp_path / "new.binvox", grid)
+    assert _header_and_runs((tmp_path / "new.binvox").read_bytes()) == _header_and_runs(
+        _old_writer_bytes(grid))
 
 
 @pytest.mark.parametrize("resolution", [1, 5, 32])
@@ -226,9 +261,7 @@ def test_round_trip_random_grids(tmp_path, resolution):
 def test_long_runs_are_split_at_255(tmp_path):
     path = tmp_path / "full.binvox"
     write_binvox(path, np.ones((32, 32, 32), dtype=bool))
-    body = path.read_bytes()[
-        len(b"#binvox 1\ndim 32 32 32\ntranslate -0.5 -0.5 -0.5\nscale 1.0\ndata\n") :
-    ]
+    _, body = _header_and_runs(path.read_bytes())
     counts = np.frombuffer(body, dtype=np.uint8)[1::2]
     assert len(counts) == -(-(32**3) // 255) and counts.max() == 255 and counts.sum() == 32**3
 

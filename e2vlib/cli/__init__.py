@@ -31,6 +31,11 @@ three command modules import those two; ``parser`` imports all five; none import
 the parser's choices come from). ``figures`` stays in ``e2vlib.__main__``.
 """
 
-from e2vlib.cli.errors import EXIT_FAILURE, EXIT_USAGE, CommandError, Parser, UsageError, run
+import lazy_loader
 
-__all__ = ["EXIT_FAILURE", "EXIT_USAGE", "CommandError", "Parser", "UsageError", "run"]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "errors": ["EXIT_FAILURE", "EXIT_USAGE", "CommandError", "Parser", "run", "UsageError"],
+    },
+)

@@ -171,7 +171,8 @@ def run_evaluate(args: argparse.Namespace) -> int:
     from e2vlib.data import E2VDataset
     from e2vlib.files import atomic_path
     from e2vlib.model import model_from_checkpoint, read_checkpoint
-    from e2vlib.train import evaluate, format_table
+    from e2vlib.train import evaluate
+    from e2vlib.metrics import format_table
 
     json_path = output_file(args.json, "--json", "results.json") if args.json else None
     check_device(args.device)

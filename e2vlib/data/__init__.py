@@ -66,131 +66,40 @@ layout and the authors' released SynthEVox3D layout.
 Introduced in notebooks/04_building_the_dataset.ipynb.
 """
 
-from e2vlib.data.build import (
-    DATASET_ENTRIES,
-    SHARDS_DIR,
-    build_dataset,
-    check_build_folder,
-    describe_build,
-    run_jobs,
-)
-from e2vlib.data.checks import (
-    MANIFEST_REQUIRED,
-    MAX_CONFIG_BYTES,
-    MAX_FRAMES_PER_SAMPLE,
-    MAX_ID_LENGTH,
-    MAX_MANIFEST_BYTES,
-    SPLITS,
-    WINDOWS,
-    DatasetError,
-    check_id,
-    inside,
-    npz_problem,
-    read_config,
-    read_manifest_rows,
-    rebuild_hint,
-)
-from e2vlib.data.commands import build_command, make_data_command
-from e2vlib.data.config import (
-    MAX_PER_CATEGORY,
-    MAX_RESOLUTION,
-    BuildConfig,
-    dataset_config,
-    frame_settings,
-)
-from e2vlib.data.dataset import E2VDataset, Verification, verify_dataset
-from e2vlib.data.grey import (
-    GREY_DIR,
-    grey_frame_cameras,
-    grey_frame_indices,
-    load_grey_video,
-    nearest_frames,
-    rendered_times_us,
-    save_grey_video,
-    video_to_grey,
-)
-from e2vlib.data.manifest import (
-    MANIFEST_FIELDS,
-    manifest_digests,
-    npz_digest,
-    read_manifest,
-    write_manifest,
-)
-from e2vlib.data.plan import (
-    SPLIT_FRACTIONS,
-    SampleSpec,
-    parse_shard,
-    plan_samples,
-    raw_event_ids,
-    sample_seed,
-)
-from e2vlib.data.samples import Sample, load_sample, mesh_to_sample, save_sample
-from e2vlib.data.synthevox3d import (
-    SYNTHEVOX3D_SENSOR,
-    load_synthevox3d_scan,
-    synthevox3d_items,
-    synthevox3d_time_scale,
-)
-from e2vlib.inputs import events_to_frames, events_to_model_input
+import lazy_loader
 
-__all__ = [
-    "DATASET_ENTRIES",
-    "GREY_DIR",
-    "MANIFEST_FIELDS",
-    "MANIFEST_REQUIRED",
-    "MAX_CONFIG_BYTES",
-    "MAX_FRAMES_PER_SAMPLE",
-    "MAX_ID_LENGTH",
-    "MAX_MANIFEST_BYTES",
-    "MAX_PER_CATEGORY",
-    "MAX_RESOLUTION",
-    "SHARDS_DIR",
-    "SPLITS",
-    "SPLIT_FRACTIONS",
-    "SYNTHEVOX3D_SENSOR",
-    "WINDOWS",
-    "BuildConfig",
-    "DatasetError",
-    "E2VDataset",
-    "Sample",
-    "SampleSpec",
-    "Verification",
-    "build_command",
-    "build_dataset",
-    "check_build_folder",
-    "check_id",
-    "dataset_config",
-    "describe_build",
-    "events_to_frames",
-    "events_to_model_input",
-    "frame_settings",
-    "grey_frame_cameras",
-    "grey_frame_indices",
-    "inside",
-    "load_grey_video",
-    "load_sample",
-    "load_synthevox3d_scan",
-    "make_data_command",
-    "manifest_digests",
-    "mesh_to_sample",
-    "nearest_frames",
-    "npz_digest",
-    "npz_problem",
-    "parse_shard",
-    "plan_samples",
-    "raw_event_ids",
-    "read_config",
-    "read_manifest",
-    "read_manifest_rows",
-    "rebuild_hint",
-    "rendered_times_us",
-    "run_jobs",
-    "sample_seed",
-    "save_grey_video",
-    "save_sample",
-    "synthevox3d_items",
-    "synthevox3d_time_scale",
-    "verify_dataset",
-    "video_to_grey",
-    "write_manifest",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "build": [
+            "DATASET_ENTRIES", "SHARDS_DIR", "build_dataset", "check_build_folder",
+            "describe_build", "run_jobs",
+        ],
+        "checks": [
+            "MANIFEST_REQUIRED", "MAX_CONFIG_BYTES", "MAX_FRAMES_PER_SAMPLE", "MAX_ID_LENGTH",
+            "MAX_MANIFEST_BYTES", "SPLITS", "WINDOWS", "check_id", "DatasetError", "inside",
+            "npz_problem", "read_config", "read_manifest_rows", "rebuild_hint",
+        ],
+        "commands": ["build_command", "make_data_command"],
+        "config": [
+            "MAX_PER_CATEGORY", "MAX_RESOLUTION", "BuildConfig", "dataset_config", "frame_settings",
+        ],
+        "dataset": ["E2VDataset", "Verification", "verify_dataset"],
+        "grey": [
+            "GREY_DIR", "grey_frame_cameras", "grey_frame_indices", "load_grey_video",
+            "nearest_frames", "rendered_times_us", "save_grey_video", "video_to_grey",
+        ],
+        "manifest": [
+            "MANIFEST_FIELDS", "manifest_digests", "npz_digest", "read_manifest", "write_manifest",
+        ],
+        "plan": [
+            "SPLIT_FRACTIONS", "parse_shard", "plan_samples", "raw_event_ids", "sample_seed",
+            "SampleSpec",
+        ],
+        "samples": ["load_sample", "mesh_to_sample", "Sample", "save_sample"],
+        "synthevox3d": [
+            "SYNTHEVOX3D_SENSOR", "load_synthevox3d_scan", "synthevox3d_items",
+            "synthevox3d_time_scale",
+        ],
+    },
+)

@@ -8,11 +8,17 @@ Introduced in notebooks/04_building_the_dataset.ipynb.
 
 from __future__ import annotations
 
+import functools
 import json
 import multiprocessing
 import os
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
+
+from tqdm.auto import tqdm
+from tqdm.contrib.concurrent import process_map
 
 from e2vlib.data.checks import DatasetError, read_config
 from e2vlib.data.config import BuildConfig
@@ -169,33 +175,59 @@ def build_dataset(
     todo = [s for k, s in enumerate(specs) if k % count == index and s.split in config.splits
             and not _sample_done(root, s.id, config)]
     jobs = [(config, s, str(root), s.id in keep) for s in todo]
-    run_jobs(_build_one, jobs, workers, f"building {root.name}", "sample", progress)
+    run_jobs(_build_one, jobs, workers, f"building {root.name}", "sample", progress,
+             names=[f"sample {s.id}" for s in todo])
     return write_manifest(root, specs)
 
 
-def run_jobs(work, jobs: list, workers: int, desc: str, unit: str, progress: bool) -> None:
-    """Run ``work(job)`` for every job, in ``workers`` processes when more than one, with a
-    progress bar of ``unit``s.
+class _SpawnedWorkersBar(tqdm):
+    """tqdm's bar, given a lock that "spawn" workers can take: tqdm makes its own lock in the
+    default ("fork") context, which Python refuses to send to spawned processes."""
+
+
+class JobError(RuntimeError):
+    """One job of :func:`run_jobs` failed; the message names it and the original error."""
+
+
+def _named_job(work: Callable[[Any], Any], job: Any, name: str) -> Any:
+    """``work(job)``, with an error turned into a :class:`JobError` that names the job."""
+    try:
+        return work(job)
+    except Exception as err:
+        raise JobError(f"{name} failed: {type(err).__name__}: {err}") from err
+
+
+def run_jobs(work: Callable[[Any], Any], jobs: Sequence[Any], workers: int, desc: str,
+             unit: str, progress: bool, names: Sequence[str] | None = None) -> list:
+    """``[work(job) for job in jobs]`` with a progress bar of ``unit``s; in ``workers``
+    fresh processes (tqdm's ``process_map``) when more than one, else in this process.
+
+    ``work`` must be a module-level function when ``workers > 1`` (it is pickled). A failing
+    job raises :class:`JobError` naming it by ``names[k]`` (default ``"<unit> <k>"``).
 
     Examples
     --------
-    >>> run_jobs(print, ["a", "b"], workers=1, desc="printing", unit="job", progress=False)
-    a
-    b
+    >>> run_jobs(str.upper, ["a", "b"], workers=1, desc="shouting", unit="word", progress=False)
+    ['A', 'B']
+    >>> run_jobs(int, ["1", "x"], 1, "parsing", "number", False, names=["one", "ex"])
+    Traceback (most recent call last):
+    ...
+    e2vlib.data.build.JobError: ex failed: ValueError: invalid literal for int() with base 10: 'x'
     """
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=len(jobs), desc=desc, unit=unit, disable=not progress)
+    names = [f"{unit} {k}" for k in range(len(jobs))] if names is None else list(names)
+    if len(names) != len(jobs):
+        raise ValueError(f"run_jobs got {len(jobs)} jobs but {len(names)} names; give one name "
+                         "per job")
+    task = functools.partial(_named_job, work)
     if workers > 1 and len(jobs) > 1:
         # "spawn": each worker starts a fresh interpreter with its own VTK/OpenGL state.
-        with multiprocessing.get_context("spawn").Pool(workers) as pool:
-            for _ in pool.imap_unordered(work, jobs):
-                bar.update()
-    else:
-        for job in jobs:
-            work(job)
-            bar.update()
-    bar.close()
+        spawn = multiprocessing.get_context("spawn")
+        _SpawnedWorkersBar.set_lock(spawn.RLock())
+        return process_map(task, jobs, names, max_workers=workers, chunksize=1,
+                           mp_context=spawn, tqdm_class=_SpawnedWorkersBar, desc=desc,
+                           unit=unit, disable=not progress)
+    return [task(job, name) for job, name in tqdm(list(zip(jobs, names, strict=True)),
+                                                  desc=desc, unit=unit, disable=not progress)]
 
 
 def _sample_done(root: Path, sample_id: str, config: BuildConfig) -> bool:

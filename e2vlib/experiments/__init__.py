@@ -50,78 +50,29 @@ Command line: ``python -m e2vlib experiment STUDY [--configs ...] [--seeds 0 1 2
 Introduced in notebooks/09_event_representations_and_time.ipynb.
 """
 
-from e2vlib.experiments.caches import (
-    BUILD_WORKERS,
-    DATA_COMMANDS,
-    DEFAULT_OUT,
-    EVENTS_CACHE,
-    EVENTS_COMMAND,
-    EXTRA_CACHE,
-    EXTRA_COMMAND,
-    NOISE_CACHE,
-    NOISE_COMMANDS,
-    RENDER_CACHE,
-    RENDER_COMMAND,
-    SMALL_SETTINGS,
-    STORAGE_SETTINGS,
-    cache_command,
-)
-from e2vlib.experiments.loader import (
-    events_root,
-    grey_input,
-    input_config,
-    load_split,
-    run_size,
-    train_counts,
-)
-from e2vlib.experiments.provenance import REPO, cpu_name, git_commit, package_version
-from e2vlib.experiments.records import (
-    RESULTS_DIR,
-    MissingResultsError,
-    finding,
-    load_results,
-    minutes_per_run,
-    recorded_on,
-    report,
-    runs_of,
-)
-from e2vlib.experiments.runner import (
-    best_threshold,
-    command_line,
-    find_same_run,
-    run_one,
-    run_study,
-)
-from e2vlib.experiments.studies import (
-    BASE,
-    COLLAPSE_IOU,
-    NEUTRAL,
-    QUICK,
-    STUDIES,
-    THRESHOLDS,
-    Study,
-    canonical_protocol,
-    epochs_of,
-    is_collapsed,
-)
-from e2vlib.experiments.summary import (
-    compare,
-    format_summary,
-    is_real_difference,
-    plot_summary,
-    summarize,
-)
-from e2vlib.inputs import GREY_INPUTS
+import lazy_loader
 
-__all__ = [
-    "BASE", "BUILD_WORKERS", "COLLAPSE_IOU", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE",
-    "EVENTS_COMMAND", "EXTRA_CACHE", "EXTRA_COMMAND", "GREY_INPUTS", "NEUTRAL", "NOISE_CACHE",
-    "NOISE_COMMANDS", "QUICK", "RENDER_CACHE", "RENDER_COMMAND", "REPO", "RESULTS_DIR",
-    "SMALL_SETTINGS", "STORAGE_SETTINGS", "STUDIES", "THRESHOLDS", "MissingResultsError",
-    "Study", "best_threshold", "cache_command", "canonical_protocol", "command_line",
-    "compare", "cpu_name", "epochs_of", "events_root", "find_same_run", "finding",
-    "format_summary", "git_commit", "grey_input", "input_config", "is_collapsed",
-    "is_real_difference", "load_results", "load_split", "minutes_per_run", "package_version",
-    "plot_summary", "recorded_on", "report", "run_one", "run_size", "run_study", "runs_of",
-    "summarize", "train_counts",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "caches": [
+            "BUILD_WORKERS", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE", "EVENTS_COMMAND",
+            "EXTRA_CACHE", "EXTRA_COMMAND", "NOISE_CACHE", "NOISE_COMMANDS", "RENDER_CACHE",
+            "RENDER_COMMAND", "SMALL_SETTINGS", "STORAGE_SETTINGS", "cache_command",
+        ],
+        "loader": [
+            "events_root", "grey_input", "input_config", "load_split", "run_size", "train_counts",
+        ],
+        "provenance": ["REPO", "cpu_name", "git_commit", "package_version"],
+        "records": [
+            "RESULTS_DIR", "finding", "load_results", "minutes_per_run", "MissingResultsError",
+            "recorded_on", "report", "runs_of",
+        ],
+        "runner": ["best_threshold", "command_line", "find_same_run", "run_one", "run_study"],
+        "studies": [
+            "BASE", "COLLAPSE_IOU", "NEUTRAL", "QUICK", "STUDIES", "THRESHOLDS",
+            "canonical_protocol", "epochs_of", "is_collapsed", "Study",
+        ],
+        "summary": ["compare", "format_summary", "is_real_difference", "plot_summary", "summarize"],
+    },
+)

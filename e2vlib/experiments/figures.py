@@ -42,8 +42,9 @@ def render_readme_figures(out_dir, data_root, checkpoint, categories=README_CATE
     import matplotlib.pyplot as plt
     import torch
 
-    from e2vlib.data import E2VDataset, events_to_frames
+    from e2vlib.data import E2VDataset
     from e2vlib.files import atomic_path
+    from e2vlib.inputs import orbit_input
     from e2vlib.io import load_events
     from e2vlib.metrics import iou
     from e2vlib.model import load_checkpoint
@@ -80,7 +81,7 @@ def render_readme_figures(out_dir, data_root, checkpoint, categories=README_CATE
         plotter.close()
 
     config = test.config
-    frames = events_to_frames(events, sensor_size, sensor_size[0], n_frames=config["n_frames"],
+    frames = orbit_input(events, sensor_size, sensor_size[0], n_frames=config["n_frames"],
                               dt_us=config["dt_us"], windows=config["windows"])
     shown = np.linspace(0, len(frames) - 1, 8).round().astype(int)
     side = sensor_size[0]

@@ -133,7 +133,8 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
     )
     from e2vlib.geometry import score_occupancy
     from e2vlib.metrics import iou
-    from e2vlib.train import category_mean_shapes, preload
+    from e2vlib.train import category_mean_shapes
+    from e2vlib.inputs import preload
 
     checkpoints = dict(checkpoints or DEFAULT_CHECKPOINTS)
     clash = sorted(set(checkpoints) & set(BASELINES))

@@ -3,10 +3,10 @@
 :func:`reconstruct` is what ``python -m e2vlib reconstruct`` runs: a mesh goes through the
 dataset pipeline (:func:`e2vlib.data.mesh_to_sample`: orbit video, events, frames, and its
 own voxels to compare with), an event stream (a file or an array) becomes the model's
-input by :func:`e2vlib.inputs.events_to_model_input` (windows from its first event, a
+input by :func:`e2vlib.inputs.recording_input` (windows from its first event, a
 centre crop of any sensor); either way the frames are made with the settings of the data
-the model was trained on (:func:`input_config`). The answer is a :class:`Reconstruction`:
-the probabilities ``(32, 32, 32)`` float32, the frames that went in, and the mesh's voxels.
+the model was trained on (:func:`checkpoint_build_config`). The answer is a
+:class:`Reconstruction`: the probabilities ``(32, 32, 32)`` float32, the frames that went in, and the mesh's voxels.
 
 Introduced in notebooks/07_evaluation.ipynb.
 """
@@ -23,7 +23,7 @@ import torch
 
 import e2vlib.train as train  # train.predict looked up at call time (a test replaces it)
 from e2vlib.data import BuildConfig, mesh_to_sample
-from e2vlib.inputs import events_to_model_input
+from e2vlib.inputs import recording_input
 from e2vlib.io import load_events
 from e2vlib.metrics import iou
 from e2vlib.model import E2V, checkpoint_data_config, model_from_checkpoint, read_checkpoint
@@ -88,8 +88,8 @@ class Reconstruction:
         return {**known, "probabilities": self.probabilities, "frames": self.frames}
 
 
-def input_config(ckpt: Mapping[str, Any], model: E2V, source: object = "checkpoint"
-                 ) -> BuildConfig:
+def checkpoint_build_config(ckpt: Mapping[str, Any], model: E2V,
+                            source: object = "checkpoint") -> BuildConfig:
     """The settings that make ``model``'s input as for the data it was trained on: the data
     config stored in ``ckpt`` (:func:`~e2vlib.model.checkpoint_data_config`), with the
     frames' number and size from the model where it stores none (renders at twice the
@@ -101,10 +101,10 @@ def input_config(ckpt: Mapping[str, Any], model: E2V, source: object = "checkpoi
     --------
     >>> from e2vlib.model import build_e2v
     >>> model = build_e2v("tiny", input_shape=(10, 16, 16))
-    >>> config = input_config({}, model)  # a checkpoint without a data config
+    >>> config = checkpoint_build_config({}, model)  # a checkpoint without a data config
     >>> config.n_frames, config.frame_size, config.resolution, config.dt_us, config.windows
     (10, 16, 32, 5000, 'fixed')
-    >>> input_config({"data_config": {"n_frames": 50}}, model, "tiny.pt")
+    >>> checkpoint_build_config({"data_config": {"n_frames": 50}}, model, "tiny.pt")
     Traceback (most recent call last):
     ...
     ValueError: tiny.pt is inconsistent: its model takes 10 frames of 16 px but the data \
@@ -160,7 +160,7 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
     ValueError
         Naming the problem: neither or both of ``mesh`` and ``events``, an array without
         ``sensor_size``, a checkpoint whose stored data config disagrees with its model
-        (:func:`input_config`), frames of another shape than the model takes;
+        (:func:`checkpoint_build_config`), frames of another shape than the model takes;
         :class:`InputError` for events that cannot make the input (fewer than its frames).
     FloatingPointError
         When the model's output holds NaN or inf (a broken checkpoint).
@@ -199,7 +199,7 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
     else:
         ckpt, source = read_checkpoint(checkpoint), f"checkpoint {checkpoint}"
     model = model_from_checkpoint(ckpt, source=source)
-    config = input_config(ckpt, model, source)
+    config = checkpoint_build_config(ckpt, model, source)
     voxels = None
     if mesh is not None:
         if isinstance(mesh, (str, os.PathLike)):
@@ -214,7 +214,7 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         elif sensor_size is None:
             raise ValueError("an event array needs its sensor_size (width, height)")
         try:
-            frames = events_to_model_input(events, sensor_size, config.frame_size,
+            frames = recording_input(events, sensor_size, config.frame_size,
                                            n_frames=config.n_frames, dt_us=config.dt_us,
                                            windows=config.windows)
         except ValueError as err:
@@ -229,4 +229,4 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
     return Reconstruction(probabilities.astype(np.float32), frames, voxels)
 
 
-__all__ = ["InputError", "Reconstruction", "input_config", "reconstruct"]
+__all__ = ["InputError", "Reconstruction", "checkpoint_build_config", "reconstruct"]

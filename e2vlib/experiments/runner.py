@@ -14,14 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from e2vlib.experiments.caches import DEFAULT_OUT
-from e2vlib.experiments.loader import load_split, run_size
+from e2vlib.experiments.loader import load_split
+from e2vlib.experiments.protocol import Protocol
 from e2vlib.experiments.provenance import cpu_name, git_commit
-from e2vlib.experiments.studies import (
-    STUDIES,
-    THRESHOLDS,
-    canonical_protocol,
-    epochs_of,
-)
+from e2vlib.experiments.studies import STUDIES, THRESHOLDS
 from e2vlib.files import atomic_path
 from e2vlib.inputs import GREY_INPUTS
 
@@ -42,7 +38,7 @@ def best_threshold(probabilities, voxels, thresholds: Iterable[float] = THRESHOL
     return float(list(thresholds)[int(np.argmax(scores))])
 
 
-def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | None = None,
+def run_one(protocol: Protocol, seed: int, device: str = "auto", workdir: Path | None = None,
             progress: bool = False, keep_checkpoint: Path | None = None) -> dict:
     """Train and evaluate one (protocol, seed); return its record (without config name).
 
@@ -59,20 +55,20 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
     from e2vlib.model import build_e2v, load_checkpoint
     from e2vlib.train import fit, predict, resolve_device
 
-    torch.set_num_threads(int(protocol["threads"]))
+    torch.set_num_threads(protocol.threads)
     train = load_split(protocol, "train", progress)
     val = load_split(protocol, "val", progress)
     test = load_split(protocol, "test", progress)
-    representation = protocol["representation"]
+    representation = protocol.representation
     channels = 1 if representation in GREY_INPUTS else input_channels(representation)
     shape = tuple(train.frames.shape[-3:])
     overrides = {"in_channels": channels} if channels > 1 else {}
-    model = build_e2v(protocol["preset"], seed=seed, input_shape=shape, **overrides)
+    model = build_e2v(protocol.preset, seed=seed, input_shape=shape, **overrides)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         started = time.perf_counter()
-        history = fit(model, train, val, tmp, recipe=protocol["recipe"],
-                      epochs=epochs_of(protocol), device=device, seed=seed,
-                      loss=protocol["loss"], progress=progress)
+        history = fit(model, train, val, tmp, recipe=protocol.recipe,
+                      epochs=protocol.run_epochs, device=device, seed=seed,
+                      loss=protocol.loss, progress=progress)
         train_seconds = time.perf_counter() - started
         best = load_checkpoint(Path(tmp) / "best.pt")
         if keep_checkpoint is not None:
@@ -92,7 +88,7 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
                                       for c, v in result["per_category"].items()}
     def other_test(name: str, changes: dict, at_val_threshold: bool) -> None:
         """Score the same model on another test split: ``name:iou@0.3`` etc."""
-        other = load_split({**protocol, **changes}, "test", progress)
+        other = load_split(protocol.updated(changes), "test", progress)
         probabilities = predict(best, other.frames, device)
         scores = score_split(probabilities, other.voxels, other.categories)["overall"]
         metrics.update({f"{name}:{k}": float(scores[k]) for k in ("iou@0.3", "fscore@1%")})
@@ -100,9 +96,9 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
             metrics[f"{name}:iou@val_threshold"] = float(np.mean(iou(
                 probabilities, other.voxels, threshold=threshold)))
 
-    for name, root in protocol.get("test_data", {}).items():  # other data, e.g. renders
+    for name, root in protocol.test_data or ():  # other data, e.g. renders
         other_test(name, {"data": root}, at_val_threshold=False)
-    for level in protocol.get("test_noise", ()):  # other noise levels
+    for level in protocol.test_noise or ():  # other noise levels
         other_test(level, {"noise": level}, at_val_threshold=True)
     best_epoch = max(history, key=lambda h: h["val_iou"])
     from e2vlib.model import count_parameters
@@ -110,7 +106,7 @@ def run_one(protocol: dict, seed: int, device: str = "auto", workdir: Path | Non
     return {
         "seed": int(seed),
         "metrics": metrics,
-        **run_size(protocol),
+        **protocol.run_size(),
         "best_epoch": int(best_epoch["epoch"]),
         "best_val_iou@0.3": float(best_epoch["val_iou"]),
         "n_parameters": count_parameters(best),
@@ -138,6 +134,14 @@ def _write(path: Path, results: dict) -> None:
         tmp.write_text(json.dumps(results, indent=1) + "\n")
 
 
+def _same_protocol(recorded: dict, protocol: Protocol) -> bool:
+    """True when a results file's ``recorded`` protocol is ``protocol`` (unknown keys: no)."""
+    try:
+        return Protocol.from_dict(recorded) == protocol
+    except ValueError:
+        return False
+
+
 def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int],
                  quick: bool, reuse: bool = True, checkpoints: str | None = None) -> str:
     """The command that reproduces (or resumes) a study."""
@@ -154,11 +158,12 @@ def command_line(study: str, configs: Sequence[str] | None, seeds: Sequence[int]
     return " ".join(parts)
 
 
-def find_same_run(out: Path, protocol: dict, seed: int, device: str,
+def find_same_run(out: Path, protocol: Protocol, seed: int, device: str,
                   exclude: Path | None = None, cpu: str | None = None) -> dict | None:
-    """A run recorded in another study file of ``out`` with exactly this full ``protocol``
-    (its study's protocol + its params), ``seed``, ``device`` and CPU model (``cpu``,
-    default :func:`cpu_name`), or None.
+    """A run recorded in another study file of ``out`` with the same training run's
+    ``protocol`` (its study's protocol + its params, compared in
+    :meth:`~e2vlib.experiments.protocol.Protocol.canonical` form), ``seed``, ``device`` and
+    CPU model (``cpu``, default :func:`cpu_name`), or None.
 
     Training on one CPU model is deterministic for a protocol and seed (same threads), so
     such a run is the run this one would be; the encoder study's ``resnet3d`` runs, made
@@ -167,6 +172,7 @@ def find_same_run(out: Path, protocol: dict, seed: int, device: str,
     copied. The returned record names its origin in ``reused_from`` (``"study/config"``).
     """
     cpu = cpu_name() if cpu is None else cpu
+    same = protocol.canonical()
     for other in sorted(Path(out).glob("*.json")):
         if exclude is not None and other.resolve() == exclude.resolve():
             continue
@@ -177,10 +183,14 @@ def find_same_run(out: Path, protocol: dict, seed: int, device: str,
         if not isinstance(results, dict) or "protocol" not in results:
             continue
         for run in results.get("runs", []):
-            if (run.get("seed") == seed and run.get("device") == device
-                    and run.get("cpu") == cpu
-                    and canonical_protocol({**results["protocol"], **run.get("params", {})})
-                    == canonical_protocol(protocol)):
+            if (run.get("seed") != seed or run.get("device") != device
+                    or run.get("cpu") != cpu):
+                continue
+            try:
+                theirs = Protocol.from_dict(results["protocol"]).updated(run.get("params", {}))
+            except ValueError:
+                break  # not a training study's record (e.g. the geometry study)
+            if theirs.canonical() == same:
                 origin = run.get("reused_from", f"{results.get('study', other.stem)}/"
                                                 f"{run['config']}")
                 kept = {k: v for k, v in run.items() if k not in ("config", "params")}
@@ -214,13 +224,13 @@ def run_study(study: str, configs: Sequence[str] | None = None,
                          f"{', '.join(spec.configs)}")
     if not seeds:
         raise ValueError("give at least one seed")
-    protocol = {**spec.protocol(quick), **(base_overrides or {})}
+    protocol = spec.protocol(quick).updated(base_overrides or {})
     path = Path(out) / f"{study}.json"
     results = _read(path) or {"study": study, "question": spec.question,
-                              "protocol": protocol, "runs": []}
-    if results["protocol"] != protocol:
+                              "protocol": protocol.to_dict(), "runs": []}
+    if not _same_protocol(results["protocol"], protocol):
         raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
-                         f"use another --out folder to run this one ({protocol})")
+                         f"use another --out folder to run this one ({protocol.to_dict()})")
     results["command"] = command_line(study, configs, seeds, quick, reuse,
                                       str(checkpoints) if checkpoints else None)
     commands = results.setdefault("commands", [])  # every invocation that added runs, in order
@@ -236,17 +246,17 @@ def run_study(study: str, configs: Sequence[str] | None = None,
         if reuse:
             from e2vlib.train import resolve_device
 
-            record = find_same_run(path.parent, {**protocol, **params}, int(seed),
+            record = find_same_run(path.parent, protocol.updated(params), int(seed),
                                    str(resolve_device(device)), exclude=path)
         if record is None:
             kept = (Path(checkpoints) / study / f"{name}_seed{int(seed)}.pt"
                     if checkpoints else None)
-            record = run_one({**protocol, **params}, int(seed), device=device,
+            record = run_one(protocol.updated(params), int(seed), device=device,
                              progress=progress, keep_checkpoint=kept)
             if kept is not None:
                 record["checkpoint"] = kept.as_posix()
         else:  # records made before runs noted their size get it from the protocol
-            record = {**run_size({**protocol, **params}), **record}
+            record = {**protocol.updated(params).run_size(), **record}
         results["runs"].append({"config": name, "params": params, **record})
         _write(path, results)
         if progress:

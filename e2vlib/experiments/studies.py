@@ -1,5 +1,8 @@
-"""The studies: the shared protocol, each study's question and configs, and what makes two
-protocols the same run.
+"""The studies: each study's question, its base protocol and its configs.
+
+A study's protocol is a :class:`~e2vlib.experiments.protocol.Protocol` (its defaults are the
+protocol every study shares) with the study's ``base`` changes; each config changes a few
+settings more.
 """
 
 from __future__ import annotations
@@ -8,24 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2vlib import paper
-from e2vlib.experiments.caches import EVENTS_CACHE, EXTRA_CACHE, NOISE_CACHE, RENDER_CACHE
-
-BASE: dict = {
-    "data": "data_small",
-    "events": str(EVENTS_CACHE),
-    "representation": "binary",
-    "n_frames": paper.N_EVENT_FRAMES,
-    "dt_us": paper.DT_US,
-    "frame_size": paper.FRAME_SIZE_PX,
-    "preset": "tiny",
-    "loss": "bce",
-    "recipe": "tiny",
-    "epochs": 12,
-    "threads": 2,
-}
-"""The shared protocol: every config of every study changes only some of these keys."""
-
+from e2vlib.experiments.caches import EXTRA_CACHE, NOISE_CACHE, RENDER_CACHE
+from e2vlib.experiments.protocol import Protocol
 
 QUICK: dict = {"epochs": 1, "per_category": 2, "frame_size": 32}
 """Quick mode (CI, live lesson demos): 2 training samples per category, 1 epoch, 32 px."""
@@ -37,16 +24,25 @@ THRESHOLDS = tuple(np.round(np.arange(0.05, 0.96, 0.05), 2).tolist())
 
 @dataclass(frozen=True)
 class Study:
-    """A question and the configs that answer it (``config name -> params``)."""
+    """A question and the configs that answer it (``config name -> params``, each the
+    protocol settings it changes); ``base`` changes the shared protocol for every config."""
 
     name: str
     question: str
     configs: dict[str, dict]
     base: dict = field(default_factory=dict)
 
-    def protocol(self, quick: bool = False) -> dict:
-        """The base protocol of this study (``BASE`` + the study's own base + quick)."""
-        return {**BASE, **self.base, **(QUICK if quick else {})}
+    def __post_init__(self) -> None:
+        for config, params in self.configs.items():
+            try:
+                self.protocol().updated(params)
+            except ValueError as error:
+                raise ValueError(f"study {self.name!r}, config {config!r}: {error}") from None
+
+    def protocol(self, quick: bool = False) -> Protocol:
+        """The base protocol of this study: the shared one with the study's ``base`` changes
+        (and :data:`QUICK`'s in quick mode)."""
+        return Protocol().updated({**self.base, **(QUICK if quick else {})})
 
 
 STUDIES: dict[str, Study] = {
@@ -172,49 +168,3 @@ def is_collapsed(record: dict) -> bool:
     (True, False)
     """
     return record["metrics"]["iou@0.3"] < COLLAPSE_IOU
-
-
-NEUTRAL: dict[str, tuple[object, tuple[str, ...]]] = {
-    "train_scale": (1, ("train_scale", "extra")),
-    "noise": ("clean", ("noise", "noise_events", "test_noise")),
-}
-"""Protocol keys that change nothing about training at their base value, with that value and
-the keys that go with them (``train_scale`` 1 is data_small's own training set, ``noise``
-"clean" its own events; ``test_noise`` only adds test scores): :func:`canonical_protocol`
-drops them."""
-
-
-def canonical_protocol(protocol: dict) -> dict:
-    """``protocol`` without the keys that change nothing at their value (:data:`NEUTRAL`),
-    so ``data_scale``'s ``1x`` is the same training run as ``representation``'s ``binary``
-    or ``noise``'s ``train_clean`` (whose record only holds more test scores).
-
-    Examples
-    --------
-    >>> canonical_protocol({"epochs": 12, "train_scale": 1, "extra": "cache/extra_small"})
-    {'epochs': 12}
-    >>> canonical_protocol({"epochs": 12, "train_scale": 2, "extra": "x"})["train_scale"]
-    2
-    >>> canonical_protocol({"epochs": 12, "noise": "clean", "test_noise": ["high"]})
-    {'epochs': 12}
-    """
-    out = dict(protocol)
-    for key, (base, keys) in NEUTRAL.items():
-        if out.get(key, base) == base:
-            for dropped in keys:
-                out.pop(dropped, None)
-    return out
-
-
-def epochs_of(protocol: dict) -> int:
-    """Epochs of a run: ``epochs`` over data_small's training set, scaled by ``1 /
-    train_scale`` so that every size of the data_scale study takes the same number of
-    steps (within one batch per epoch).
-
-    Examples
-    --------
-    >>> [epochs_of({"epochs": 12, "train_scale": s}) for s in (0.25, 1, 4)]
-    [48, 12, 3]
-    """
-    return max(1, round(protocol["epochs"] / protocol.get("train_scale", 1)))
-

@@ -25,27 +25,15 @@ above ``data``.
 Introduced in notebooks/09_event_representations_and_time.ipynb.
 """
 
-from e2vlib.inputs.representations import (
-    GREY_INPUTS,
-    REPRESENTATIONS,
-    events_to_frames,
-    events_to_input,
-    events_to_model_input,
-    grey_input,
-    input_channels,
-    orbit_input,
-    recording_input,
+import lazy_loader
+
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "representations": [
+            "GREY_INPUTS", "REPRESENTATIONS", "events_to_input", "grey_input", "input_channels",
+            "orbit_input", "recording_input",
+        ],
+        "tensors": ["TensorSet", "preload"],
+    },
 )
-
-__all__ = ["GREY_INPUTS", "REPRESENTATIONS", "TensorSet", "events_to_frames", "events_to_input",
-           "events_to_model_input", "grey_input", "input_channels", "orbit_input", "preload",
-           "recording_input"]
-
-
-def __getattr__(name: str):
-    """``TensorSet`` and ``preload`` load torch: import them on first use."""
-    if name in ("TensorSet", "preload"):
-        from e2vlib.inputs import tensors
-
-        return getattr(tensors, name)
-    raise AttributeError(f"module 'e2vlib.inputs' has no attribute {name!r}")

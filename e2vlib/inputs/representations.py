@@ -19,11 +19,8 @@ Two clocks need two functions; pick by where the events come from:
                            of ``frame_size``; fewer than ``n_frames`` events are refused
 =========================  =================================================================
 
-The older names are thin calls of these two and stay importable from where they were:
-:func:`events_to_input` (``orbit_input`` with ``representation`` third),
-:func:`events_to_frames` (binary ``orbit_input``, also as ``e2vlib.data.events_to_frames``),
-:func:`events_to_model_input` (binary ``recording_input``, also as
-``e2vlib.data.events_to_model_input``) and ``e2vlib.experiments.explore._frames_at``.
+:func:`events_to_input` is ``orbit_input`` with ``representation`` as its third argument
+(the form lessons 09-12 and the studies call).
 
 This module imports only ``frames``, ``events`` and ``paper`` (``data`` imports it).
 Introduced in notebooks/09_event_representations_and_time.ipynb.
@@ -244,7 +241,7 @@ def recording_input(
                       windows)
 
 
-# --- the older names: thin calls of the two above ------------------------------------------
+# --- the representation as the third argument --------------------------------------------
 
 
 def events_to_input(
@@ -257,8 +254,7 @@ def events_to_input(
     t0_us: int = 0,
 ) -> np.ndarray:
     """The model input of one simulated orbit in ``representation``: :func:`orbit_input`
-    with ``representation`` third (the older name, kept for lessons 09-12 and the
-    experiments).
+    with ``representation`` third (as lessons 09-12 and the studies call it).
 
     Windows are ``n_frames`` x ``dt_us`` from ``t0_us`` (0: the orbit's first video frame).
     The square sensor is pooled by ``sensor / frame_size``: max for binary frames, time
@@ -277,52 +273,6 @@ def events_to_input(
     """
     return orbit_input(events, sensor_size, frame_size, representation=representation,
                        n_frames=n_frames, dt_us=dt_us, t0_us=t0_us)
-
-
-def events_to_frames(events: np.ndarray, sensor_size: tuple[int, int], frame_size: int,
-                     t0_us: int = 0, n_frames: int = paper.N_EVENT_FRAMES,
-                     dt_us: int = paper.DT_US,
-                     windows: str = paper.FRAME_WINDOWS) -> np.ndarray:
-    """The model's binary frames of a simulated orbit: :func:`orbit_input` (the older name,
-    kept as ``e2vlib.data.events_to_frames``).
-
-    ``n_frames`` binary frames of ``dt_us`` from ``t0_us``, max-pooled to ``frame_size``
-    (defaults: the paper's 100 frames of 5 ms, our fixed windows). Returns uint8
-    ``(n_frames, frame_size, frame_size)``; ``sensor_size`` must be square and a multiple of
-    ``frame_size``. Introduced in notebooks/04_building_the_dataset.ipynb.
-
-    Examples
-    --------
-    >>> from e2vlib.events import make_events
-    >>> ev = make_events(x=[0, 3, 3], y=[0, 3, 3], t=[0, 6, 7], p=[1, -1, 1])
-    >>> events_to_frames(ev, (4, 4), 2, n_frames=2, dt_us=5)[1].tolist()
-    [[0, 0], [0, 1]]
-    """
-    return orbit_input(events, sensor_size, frame_size, n_frames=n_frames, dt_us=dt_us,
-                       t0_us=t0_us, windows=windows)
-
-
-def events_to_model_input(events: np.ndarray, sensor_size: tuple[int, int],
-                          frame_size: int, n_frames: int = paper.N_EVENT_FRAMES,
-                          dt_us: int = paper.DT_US,
-                          windows: str = paper.FRAME_WINDOWS) -> np.ndarray:
-    """The model's binary frames of a recording: :func:`recording_input` (the older name,
-    kept as ``e2vlib.data.events_to_model_input``).
-
-    ``n_frames`` binary frames of ``dt_us`` from the first event, centre-cropped to the
-    largest square whose side is a multiple of ``frame_size`` and max-pooled down to it.
-    Returns uint8 ``(n_frames, frame_size, frame_size)``; fewer than ``n_frames`` events
-    raise EventError. Introduced in notebooks/07_evaluation.ipynb.
-
-    Examples
-    --------
-    >>> from e2vlib.events import make_events
-    >>> ev = make_events(x=[1, 4, 4], y=[0, 3, 3], t=[1000, 1006, 1007], p=[1, -1, 1])
-    >>> events_to_model_input(ev, (6, 4), 2, n_frames=2, dt_us=5)[0].tolist()
-    [[1, 0], [0, 0]]
-    """
-    return recording_input(events, sensor_size, frame_size, n_frames=n_frames, dt_us=dt_us,
-                           windows=windows)
 
 
 GREY_INPUTS: dict[str, str] = {

@@ -50,84 +50,26 @@ the function :func:`summary`; import the module itself as
 Introduced in notebooks/05_the_e2v_model.ipynb.
 """
 
-from e2vlib.model.checkpoint import (
-    DATA_CONFIG_KEY,
-    FRAME_FIELDS,
-    check_frames_match,
-    checkpoint_data_config,
-    frame_settings,
-    load_checkpoint,
-    model_from_checkpoint,
-    read_checkpoint,
-    save_checkpoint,
-    slim_checkpoint,
-)
-from e2vlib.model.config import (
-    BOTTLENECKS,
-    BRIDGES,
-    ENCODERS,
-    GRID_SIDE,
-    NORMS,
-    PAPER_PARAMETERS,
-    PRESETS,
-    RESNET_LAYERS,
-    VOXEL_RESOLUTION,
-    E2VConfig,
-)
-from e2vlib.model.decoder import Bridge, UNetDecoder
-from e2vlib.model.encoders import (
-    BasicBlock,
-    Bottleneck,
-    Frames2dEncoder,
-    Frames2dGRUEncoder,
-    ResNetEncoder,
-)
-from e2vlib.model.integrity import DIGEST_KEY, CheckpointError, verify_weights, weights_digest
-from e2vlib.model.networks import E2V, build_e2v, count_parameters
-from e2vlib.model.summary import (
-    activation_bytes,
-    format_summary,
-    parameter_breakdown,
-    summary,
-)
+import lazy_loader
 
-__all__ = [
-    "BOTTLENECKS",
-    "BRIDGES",
-    "DATA_CONFIG_KEY",
-    "DIGEST_KEY",
-    "E2V",
-    "ENCODERS",
-    "FRAME_FIELDS",
-    "GRID_SIDE",
-    "NORMS",
-    "PAPER_PARAMETERS",
-    "PRESETS",
-    "RESNET_LAYERS",
-    "VOXEL_RESOLUTION",
-    "BasicBlock",
-    "Bottleneck",
-    "Bridge",
-    "CheckpointError",
-    "E2VConfig",
-    "Frames2dEncoder",
-    "Frames2dGRUEncoder",
-    "ResNetEncoder",
-    "UNetDecoder",
-    "activation_bytes",
-    "build_e2v",
-    "check_frames_match",
-    "checkpoint_data_config",
-    "count_parameters",
-    "format_summary",
-    "frame_settings",
-    "load_checkpoint",
-    "model_from_checkpoint",
-    "parameter_breakdown",
-    "read_checkpoint",
-    "save_checkpoint",
-    "slim_checkpoint",
-    "summary",
-    "verify_weights",
-    "weights_digest",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "checkpoint": [
+            "DATA_CONFIG_KEY", "FRAME_FIELDS", "check_frames_match", "checkpoint_data_config",
+            "frame_settings", "load_checkpoint", "model_from_checkpoint", "read_checkpoint",
+            "save_checkpoint", "slim_checkpoint",
+        ],
+        "config": [
+            "BOTTLENECKS", "BRIDGES", "ENCODERS", "GRID_SIDE", "NORMS", "PAPER_PARAMETERS",
+            "PRESETS", "RESNET_LAYERS", "VOXEL_RESOLUTION", "E2VConfig",
+        ],
+        "decoder": ["Bridge", "UNetDecoder"],
+        "encoders": [
+            "BasicBlock", "Bottleneck", "Frames2dEncoder", "Frames2dGRUEncoder", "ResNetEncoder",
+        ],
+        "integrity": ["DIGEST_KEY", "CheckpointError", "verify_weights", "weights_digest"],
+        "networks": ["E2V", "build_e2v", "count_parameters"],
+        "summary": ["activation_bytes", "format_summary", "parameter_breakdown", "summary"],
+    },
+)

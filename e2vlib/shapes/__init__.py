@@ -28,25 +28,17 @@ Module map, in the order an object is made::
 Introduced in notebooks/04_building_the_dataset.ipynb.
 """
 
-from __future__ import annotations
+import lazy_loader
 
-from e2vlib.paper import CATEGORIES, SHAPENET_SYNSETS
-from e2vlib.shapes.builders import SUB_TYPES, make_shape, shape_kind
-from e2vlib.shapes.meshes import MESH_SUFFIXES, load_mesh, normalize_mesh
-from e2vlib.shapes.primitives import Parts, Rng
-from e2vlib.shapes.shapenet import iter_shapenet, shapenet_to_zup
+from e2vlib.paper import CATEGORIES  # the contract: e2vlib.shapes.CATEGORIES
 
-__all__ = [
-    "CATEGORIES",
-    "MESH_SUFFIXES",
-    "SHAPENET_SYNSETS",
-    "SUB_TYPES",
-    "Parts",
-    "Rng",
-    "iter_shapenet",
-    "load_mesh",
-    "make_shape",
-    "normalize_mesh",
-    "shape_kind",
-    "shapenet_to_zup",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "builders": ["SUB_TYPES", "make_shape", "shape_kind"],
+        "meshes": ["MESH_SUFFIXES", "load_mesh", "normalize_mesh"],
+        "primitives": ["Parts", "Rng"],
+        "shapenet": ["iter_shapenet", "shapenet_to_zup"],
+    },
+)
+__all__ = sorted([*__all__, "CATEGORIES"])

@@ -33,61 +33,23 @@ here, as are the score tables
 Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
 """
 
-from e2vlib.inputs.tensors import TensorSet, preload
-from e2vlib.metrics import FSCORE_DISTANCES, METRIC_KEYS, format_table, score_predictions
-from e2vlib.train.devices import (
-    PRECISIONS,
-    bf16_is_fast,
-    init_distributed_from_env,
-    resolve_device,
-    to_channels_last,
-)
-from e2vlib.train.evaluation import VAL_BATCH, category_mean_shapes, evaluate, predict
-from e2vlib.train.loop import (
-    LEGACY_LOSS,
-    RESUME_KEYS,
-    fit,
-    init_output_prior,
-    read_resume_state,
-    resume_problems,
-)
-from e2vlib.train.recipes import (
-    COSINE_FLOOR,
-    RECIPES,
-    WARMUP_STEPS,
-    Recipe,
-    get_recipe,
-    lr_at_step,
-    lr_schedule,
-)
+import lazy_loader
 
-__all__ = [
-    "COSINE_FLOOR",
-    "FSCORE_DISTANCES",
-    "LEGACY_LOSS",
-    "METRIC_KEYS",
-    "PRECISIONS",
-    "RECIPES",
-    "RESUME_KEYS",
-    "VAL_BATCH",
-    "WARMUP_STEPS",
-    "Recipe",
-    "TensorSet",
-    "bf16_is_fast",
-    "category_mean_shapes",
-    "evaluate",
-    "fit",
-    "format_table",
-    "get_recipe",
-    "init_output_prior",
-    "init_distributed_from_env",
-    "lr_at_step",
-    "lr_schedule",
-    "predict",
-    "preload",
-    "read_resume_state",
-    "resolve_device",
-    "resume_problems",
-    "score_predictions",
-    "to_channels_last",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "devices": [
+            "PRECISIONS", "bf16_is_fast", "init_distributed_from_env", "resolve_device",
+            "to_channels_last",
+        ],
+        "evaluation": ["VAL_BATCH", "category_mean_shapes", "evaluate", "predict"],
+        "loop": [
+            "LEGACY_LOSS", "RESUME_KEYS", "fit", "init_output_prior", "read_resume_state",
+            "resume_problems",
+        ],
+        "recipes": [
+            "COSINE_FLOOR", "RECIPES", "WARMUP_STEPS", "get_recipe", "lr_at_step", "lr_schedule",
+            "Recipe",
+        ],
+    },
+)

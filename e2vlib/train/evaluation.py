@@ -69,7 +69,25 @@ def predict(model: E2V, frames: torch.Tensor, device: str = "auto",
 
 
 @torch.no_grad()
-def _validate(model: E2V, data: TensorSet, device: torch.device, loss_fn) -> dict:
+def validation_scores(model: E2V, data: TensorSet, device: torch.device, loss_fn) -> dict:
+    """``{"loss": mean loss per sample, "iou": mean IoU at IOU_THRESHOLD}`` of ``model`` on
+    ``data`` (in eval mode, batches of :data:`VAL_BATCH`; the mode is restored), as
+    :func:`~e2vlib.train.fit` measures it after every epoch. ``model`` must be on ``device``.
+
+    Examples
+    --------
+    >>> from e2vlib.losses import make_loss
+    >>> from e2vlib.model import build_e2v
+    >>> from e2vlib.train import init_output_prior
+    >>> voxels = torch.zeros(2, 32, 32, 32, dtype=torch.bool); voxels[:, :16] = True
+    >>> data = TensorSet(torch.zeros(2, 8, 16, 16, dtype=torch.uint8), voxels,
+    ...                  ["chair", "lamp"], ["c0", "l0"])
+    >>> model = build_e2v("tiny", seed=0, input_shape=(8, 16, 16))
+    >>> init_output_prior(model, 0.5)   # p is about 0.5 everywhere: all occupied at 0.3
+    >>> scores = validation_scores(model, data, torch.device("cpu"), make_loss("bce"))
+    >>> round(scores["loss"], 2), scores["iou"]   # log 2 and half the grid
+    (0.69, 0.5)
+    """
     was_training = model.training
     model.eval()
     losses, ious = [], []

@@ -46,47 +46,26 @@ Introduced in notebooks/01_events.ipynb, notebooks/02_event_frames.ipynb and
 notebooks/08_visualizing_in_3d.ipynb.
 """
 
-from e2vlib._headless import headless_opengl_window, offline_wasm_bundle
-from e2vlib.viz.animation import animate_frames, animation_html
-from e2vlib.viz.export import EXPORT_SUFFIXES, export_reconstruction, probability_mesh
-from e2vlib.viz.plots import (
-    plot_event_rate,
-    plot_events_3d,
-    plot_frame_grid,
-    plot_reconstruction,
-    plot_voxels,
-    show_frame,
-)
-from e2vlib.viz.recording import camera_frustum, event_cloud, view_events, view_orbit
-from e2vlib.viz.scenes import (
-    add_voxels,
-    aim_at_object,
-    new_plotter,
-    screenshot,
-    view_mesh_voxels,
-    view_reconstructions,
-    view_voxels,
-    voxel_mesh,
-)
-from e2vlib.viz.style import (
-    MESH_COLOR,
-    OBJECT_VIEW,
-    OFF_COLOR,
-    ON_COLOR,
-    POLARITY_CMAP,
-    PROBABILITY_CMAP,
-    TRUTH_COLOR,
-    UNIT_CUBE_BOUNDS,
-)
-from e2vlib.viz.widgets import interactive_figure
+import lazy_loader
 
-__all__ = [
-    "EXPORT_SUFFIXES", "MESH_COLOR", "OBJECT_VIEW", "OFF_COLOR", "ON_COLOR", "POLARITY_CMAP",
-    "PROBABILITY_CMAP", "TRUTH_COLOR", "UNIT_CUBE_BOUNDS",
-    "add_voxels", "aim_at_object", "animate_frames", "animation_html", "camera_frustum",
-    "event_cloud", "export_reconstruction", "headless_opengl_window", "interactive_figure",
-    "new_plotter", "offline_wasm_bundle", "plot_event_rate", "plot_events_3d",
-    "plot_frame_grid", "plot_reconstruction", "plot_voxels", "probability_mesh", "screenshot",
-    "show_frame", "view_events", "view_mesh_voxels", "view_orbit", "view_reconstructions",
-    "view_voxels", "voxel_mesh",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "animation": ["animate_frames", "animation_html"],
+        "export": ["EXPORT_SUFFIXES", "export_reconstruction", "probability_mesh"],
+        "plots": [
+            "plot_event_rate", "plot_events_3d", "plot_frame_grid", "plot_reconstruction",
+            "plot_voxels", "show_frame",
+        ],
+        "recording": ["camera_frustum", "event_cloud", "view_events", "view_orbit"],
+        "scenes": [
+            "add_voxels", "aim_at_object", "new_plotter", "screenshot", "view_mesh_voxels",
+            "view_reconstructions", "view_voxels", "voxel_mesh",
+        ],
+        "style": [
+            "MESH_COLOR", "OBJECT_VIEW", "OFF_COLOR", "ON_COLOR", "POLARITY_CMAP",
+            "PROBABILITY_CMAP", "TRUTH_COLOR", "UNIT_CUBE_BOUNDS",
+        ],
+        "widgets": ["interactive_figure"],
+    },
+)

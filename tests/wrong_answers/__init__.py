@@ -4,6 +4,6 @@
 answer is a mistake a student could make (an off-by-one window, the wrong axis, a typed
 value instead of a computed one, a config left out), not the stub: it runs without error
 and defines the names the check reads, and the check must then fail with an AssertionError.
-``tests/test_exercises.py`` runs each lesson once with every wrong answer (followed by its
-check) placed before the real solution.
+``tests/test_lessons.py`` runs each lesson once with, before each exercise's solution, the
+student copy's stub and this wrong answer, each followed by a copy of the check.
 """

@@ -41,88 +41,24 @@ imports this ``__init__``. Until the split this package was one module,
 Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
 
-from e2vlib.experiments.real_meshes.ac3d import ac3d_to_mesh
-from e2vlib.experiments.real_meshes.build import (
-    BUILD_COMMAND,
-    build_real_dataset,
-    real_config,
-    real_sample_seed,
-)
-from e2vlib.experiments.real_meshes.catalogue import (
-    CATALOGUE_FILE,
-    CRRCSIM,
-    CRRCSIM_COPYRIGHT,
-    CRRCSIM_CREATOR,
-    CRRCSIM_DIR,
-    CRRCSIM_INSTALL_HINT,
-    FURNITURE_DIR,
-    INSTALL_HINT,
-    LIBRARY_CODES,
-    LIBRARY_LICENCES,
-    LICENCES,
-    MAX_MODEL_BYTES,
-    CatalogueEntry,
-    RealMeshError,
-    crrcsim_entry,
-    entry_licence,
-    installed_libraries,
-    licence_from_text,
-    parse_properties,
-    read_all_catalogues,
-    read_catalogue,
-)
-from e2vlib.experiments.real_meshes.mapping import (
-    MAPPING_CSV,
-    MAPPING_FIELDS,
-    MappedEntry,
-    check_mapping,
-    read_mapping,
-    resolve,
-)
-from e2vlib.experiments.real_meshes.meshes import (
-    POSES,
-    SH3D_TO_ZUP,
-    entry_transform,
-    load_entry_mesh,
-    obj_to_mesh,
-)
+import lazy_loader
 
-__all__ = [
-    "BUILD_COMMAND",
-    "CATALOGUE_FILE",
-    "CRRCSIM",
-    "CRRCSIM_COPYRIGHT",
-    "CRRCSIM_CREATOR",
-    "CRRCSIM_DIR",
-    "CRRCSIM_INSTALL_HINT",
-    "FURNITURE_DIR",
-    "INSTALL_HINT",
-    "LIBRARY_CODES",
-    "LIBRARY_LICENCES",
-    "LICENCES",
-    "MAPPING_CSV",
-    "MAPPING_FIELDS",
-    "MAX_MODEL_BYTES",
-    "POSES",
-    "SH3D_TO_ZUP",
-    "CatalogueEntry",
-    "MappedEntry",
-    "RealMeshError",
-    "ac3d_to_mesh",
-    "build_real_dataset",
-    "check_mapping",
-    "crrcsim_entry",
-    "entry_licence",
-    "entry_transform",
-    "installed_libraries",
-    "licence_from_text",
-    "load_entry_mesh",
-    "obj_to_mesh",
-    "parse_properties",
-    "read_all_catalogues",
-    "read_catalogue",
-    "read_mapping",
-    "real_config",
-    "real_sample_seed",
-    "resolve",
-]
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "ac3d": ["ac3d_to_mesh"],
+        "build": ["BUILD_COMMAND", "build_real_dataset", "real_config", "real_sample_seed"],
+        "catalogue": [
+            "CATALOGUE_FILE", "CRRCSIM", "CRRCSIM_COPYRIGHT", "CRRCSIM_CREATOR", "CRRCSIM_DIR",
+            "CRRCSIM_INSTALL_HINT", "FURNITURE_DIR", "INSTALL_HINT", "LIBRARY_CODES",
+            "LIBRARY_LICENCES", "LICENCES", "MAX_MODEL_BYTES", "CatalogueEntry", "crrcsim_entry",
+            "entry_licence", "installed_libraries", "licence_from_text", "parse_properties",
+            "read_all_catalogues", "read_catalogue", "RealMeshError",
+        ],
+        "mapping": [
+            "MAPPING_CSV", "MAPPING_FIELDS", "check_mapping", "MappedEntry", "read_mapping",
+            "resolve",
+        ],
+        "meshes": ["POSES", "SH3D_TO_ZUP", "entry_transform", "load_entry_mesh", "obj_to_mesh"],
+    },
+)

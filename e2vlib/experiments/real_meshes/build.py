@@ -153,8 +153,9 @@ installed; apt-get install sweethome3d-furniture
         index = seen[mapped.category] = seen.get(mapped.category, -1) + 1
         specs.append(SampleSpec(id=mapped.id, category=mapped.category, index=index,
                                 split="test", seed=real_sample_seed(config.seed, mapped.id)))
-    jobs = [(config, m, e, str(root), str(folder)) for m, e in pairs
-            if not (root / "samples" / f"{m.id}.npz").exists()]
-    run_jobs(_build_real_one, jobs, workers, f"building {root.name}", "object", progress)
+    todo = [(m, e) for m, e in pairs if not (root / "samples" / f"{m.id}.npz").exists()]
+    jobs = [(config, m, e, str(root), str(folder)) for m, e in todo]
+    run_jobs(_build_real_one, jobs, workers, f"building {root.name}", "object", progress,
+             names=[f"object {m.id}" for m, _ in todo])
     return write_manifest(root, specs)
 
