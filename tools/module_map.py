@@ -36,22 +36,50 @@ def lines(path: Path) -> int:
     return len(path.read_text().splitlines())
 
 
-def module_rows(package: Path = PACKAGE) -> list[tuple[str, int, str]]:
-    """``(name, lines, purpose)`` of every module, a package first (its ``__init__``'s purpose,
-    the lines of all its modules) and then its modules, indented; sorted by name."""
-    rows = []
-    for path in sorted(package.iterdir()):
-        if path.name.startswith("__pycache__"):
-            continue
-        if path.is_dir() and (path / "__init__.py").exists():
-            members = sorted(p for p in path.glob("*.py"))
-            total = sum(lines(p) for p in members)
-            rows.append((f"{path.name}/", total, purpose(path / "__init__.py")))
-            rows += [(f"  {p.name}", lines(p), purpose(p)) for p in members
-                     if p.name != "__init__.py"]
-        elif path.suffix == ".py" and path.name != "__init__.py":
-            rows.append((path.name, lines(path), purpose(path)))
+BANDS = ("core", "speed and scale", "lab", "command line")
+"""The library's three bands and the command line on top, in import order (lowest first)."""
+
+
+def band(name: str) -> str:
+    """The band a top-level module or package (``"frames.py"``, ``"scale/"``) belongs to."""
+    top = name.strip().rstrip("/").removesuffix(".py")
+    return {"scale": "speed and scale", "experiments": "lab", "cli": "command line",
+            "__main__": "command line"}.get(top, "core")
+
+
+def _package_rows(path: Path, depth: int) -> list[tuple[str, int, str]]:
+    """A package's row (all its modules' lines, nested packages included), then its members."""
+    pad = "  " * depth
+    members = sorted(path.rglob("*.py"))
+    rows = [(f"{pad}{path.name}/", sum(lines(p) for p in members), purpose(path / "__init__.py"))]
+    for child in sorted(path.iterdir()):
+        if child.is_dir() and (child / "__init__.py").exists():
+            rows += _package_rows(child, depth + 1)
+        elif child.suffix == ".py" and child.name != "__init__.py":
+            rows.append((f"{pad}  {child.name}", lines(child), purpose(child)))
     return rows
+
+
+def module_rows(package: Path = PACKAGE) -> list[tuple[str, int, str]]:
+    """``(name, lines, purpose)`` of every module, grouped by band (core, speed and scale, lab,
+    command line); a package first (its ``__init__``'s purpose, the lines of all its modules)
+    and then its modules, indented; sorted by name within a band."""
+    top = []
+    for path in sorted(package.iterdir()):
+        if path.is_dir() and (path / "__init__.py").exists():
+            top.append((path.name + "/", _package_rows(path, 0)))
+        elif path.suffix == ".py" and path.name != "__init__.py":
+            top.append((path.name, [(path.name, lines(path), purpose(path))]))
+    return [row for b in BANDS for name, rows in top if band(name) == b for row in rows]
+
+
+def band_lines(package: Path = PACKAGE) -> dict[str, int]:
+    """Lines of code and docs per band (the package's own ``__init__`` counts as core)."""
+    totals = dict.fromkeys(BANDS, 0)
+    for path in package.rglob("*.py"):
+        first = path.relative_to(package).parts[0]
+        totals[band(first)] += lines(path)
+    return totals
 
 
 def render(rows: list[tuple[str, int, str]], indent: str = "") -> str:
@@ -69,14 +97,19 @@ def render(rows: list[tuple[str, int, str]], indent: str = "") -> str:
     return "\n".join(out)
 
 
+def band_summary() -> str:
+    """One line: lines per band, e.g. ``core 12,000 · speed and scale 900 · ...``."""
+    return " · ".join(f"{b} {n:,}" for b, n in band_lines().items())
+
+
 def doc_block() -> str:
-    total = sum(count for name, count, _ in module_rows() if not name.startswith(" "))
-    return (f"{DOC_BEGIN}``python tools/module_map.py --write``; {total:,} lines)::\n\n"
-            + render(module_rows(), "    ") + f"\n\n{DOC_END}")
+    total = sum(band_lines().values())
+    return (f"{DOC_BEGIN}``python tools/module_map.py --write``; {total:,} lines: "
+            f"{band_summary()})::\n\n" + render(module_rows(), "    ") + f"\n\n{DOC_END}")
 
 
 def readme_block() -> str:
-    return f"{BEGIN}\n```\n{render(module_rows())}\n```\n{END}"
+    return f"{BEGIN}\nLines per band: {band_summary()}.\n\n```\n{render(module_rows())}\n```\n{END}"
 
 
 def replace_between(text: str, begin: str, end: str, block: str, where: Path) -> str:
@@ -98,6 +131,7 @@ def main() -> None:
                         "README.md")
     args = parser.parse_args()
     print(render(module_rows()))
+    print(f"\nlines per band: {band_summary()}")
     if args.write:
         for path, text in current().items():
             if path.read_text() != text:

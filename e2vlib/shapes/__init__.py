@@ -10,8 +10,9 @@ z up, the object's front towards -y, x left-right. That is ShapeNetCore v2's can
 Module map, in the order an object is made::
 
     primitives   boxes, rods, hulls, beams, spheres, solids of revolution, panels, bricks;
-                 rotating parts (_turn); Rng, Parts
-    parts        random proportions and styles of parts (_u, _pick); joining parts (_union)
+                 rotating parts (turned); Rng, Parts
+    parts        random proportions and styles of parts (uniform, pick_style); joining parts
+                 (union_parts)
     vehicles     builders: airplane, car, watercraft
     furniture    builders: bench, chair, lamp, sofa, table
     cabinets     builder: cabinet, in 5 sub-types (chest, shelves, open_door, on_legs, hutch)
@@ -23,14 +24,15 @@ Module map, in the order an object is made::
     meshes       normalize_mesh, load_mesh, MESH_SUFFIXES
     shapenet     iter_shapenet (ShapeNetCore folders), shapenet_to_zup
 
-``CATEGORIES`` and ``SHAPENET_SYNSETS`` are :mod:`e2vlib.paper`'s, re-exported here.
+``CATEGORIES`` is :mod:`e2vlib.paper`'s list, also importable from here because every
+builder is one of them; ``SHAPENET_SYNSETS`` stays in ``paper``.
 
 Introduced in notebooks/04_building_the_dataset.ipynb.
 """
 
 import lazy_loader
 
-from e2vlib.paper import CATEGORIES  # the contract: e2vlib.shapes.CATEGORIES
+from e2vlib.paper import CATEGORIES as CATEGORIES  # the categories a builder makes
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,

@@ -21,7 +21,7 @@ from e2vlib.shapes.devices import _rifle
 from e2vlib.shapes.displays import DISPLAY_KINDS, _display
 from e2vlib.shapes.furniture import _bench, _chair, _lamp, _sofa, _table
 from e2vlib.shapes.meshes import normalize_mesh
-from e2vlib.shapes.parts import _pick, _union
+from e2vlib.shapes.parts import pick_style, union_parts
 from e2vlib.shapes.primitives import Parts, Rng
 from e2vlib.shapes.speakers import SPEAKER_KINDS, _speaker
 from e2vlib.shapes.telephones import TELEPHONE_KINDS, _telephone
@@ -99,7 +99,7 @@ def make_shape(category: str, seed: int) -> trimesh.Trimesh:
     """
     rng = _check(category, seed)
     parts = _BUILDERS[category](rng)
-    return normalize_mesh(_union(parts))
+    return normalize_mesh(union_parts(parts))
 
 
 def shape_kind(category: str, seed: int) -> str:
@@ -124,4 +124,4 @@ def shape_kind(category: str, seed: int) -> str:
     rng = _check(category, seed)
     if category not in SUB_TYPES:
         raise ValueError(f"{category} has no named sub-types; only {', '.join(SUB_TYPES)} have")
-    return _pick(rng, SUB_TYPES[category])
+    return pick_style(rng, SUB_TYPES[category])

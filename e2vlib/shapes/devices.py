@@ -4,7 +4,7 @@ module each: :mod:`e2vlib.shapes.displays`, :mod:`e2vlib.shapes.speakers` and
 
 Each builder takes a ``numpy.random.Generator`` and returns the parts of one object
 (watertight ``trimesh.Trimesh`` solids) in rough metres, z up, front towards -y; parts that
-meet overlap by ``_EPS``. :func:`e2vlib.shapes.builders.make_shape` joins and normalizes them.
+meet overlap by ``OVERLAP_M``. :func:`e2vlib.shapes.builders.make_shape` joins and normalizes them.
 The order of the random draws is part of the output: changing it changes every mesh.
 """
 
@@ -12,49 +12,49 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2vlib.shapes.parts import _pick, _u
+from e2vlib.shapes.parts import pick_style, uniform
 from e2vlib.shapes.primitives import (
-    _EPS,
+    OVERLAP_M,
     Parts,
     Rng,
-    _beam,
-    _box,
-    _hull,
-    _lathe,
-    _rod,
+    beam_between,
+    box_between,
+    hull_of,
+    lathe,
+    rod,
 )
 
 
 def _rifle(rng: Rng) -> Parts:
     # muzzle towards -y, butt towards +y
     parts: Parts = []
-    kind = _pick(rng, {"sniper": 0.3, "assault": 0.4, "shotgun": 0.3})
-    rec_len = _u(rng, 0.18, 0.28)
-    rec_h = _u(rng, 0.05, 0.08)
-    rec_w = _u(rng, 0.03, 0.045)
+    kind = pick_style(rng, {"sniper": 0.3, "assault": 0.4, "shotgun": 0.3})
+    rec_len = uniform(rng, 0.18, 0.28)
+    rec_h = uniform(rng, 0.05, 0.08)
+    rec_w = uniform(rng, 0.03, 0.045)
     barrel = {
-        "sniper": _u(rng, 0.4, 0.55),
-        "assault": _u(rng, 0.25, 0.4),
-        "shotgun": _u(rng, 0.35, 0.5),
+        "sniper": uniform(rng, 0.4, 0.55),
+        "assault": uniform(rng, 0.25, 0.4),
+        "shotgun": uniform(rng, 0.35, 0.5),
     }[kind]
-    br = {"shotgun": _u(rng, 0.012, 0.018)}.get(kind, _u(rng, 0.007, 0.012))
+    br = {"shotgun": uniform(rng, 0.012, 0.018)}.get(kind, uniform(rng, 0.007, 0.012))
     y_rec0 = 0.0  # receiver front
     zc = 0.0  # bore height
     parts.append(
-        _box(
+        box_between(
             (-rec_w / 2, y_rec0, zc - rec_h * 0.6), (rec_w / 2, y_rec0 + rec_len, zc + rec_h * 0.4)
         )
     )
-    parts.append(_rod((0, y_rec0 - barrel, zc), (0, y_rec0 + 0.01, zc), br, 12))
+    parts.append(rod((0, y_rec0 - barrel, zc), (0, y_rec0 + 0.01, zc), br, 12))
     if rng.random() < 0.5:  # muzzle device
         parts.append(
-            _rod((0, y_rec0 - barrel - 0.03, zc), (0, y_rec0 - barrel + 0.01, zc), br * 1.5, 12)
+            rod((0, y_rec0 - barrel - 0.03, zc), (0, y_rec0 - barrel + 0.01, zc), br * 1.5, 12)
         )
     # fore-end / handguard
-    hg = barrel * _u(rng, 0.35, 0.6)
+    hg = barrel * uniform(rng, 0.35, 0.6)
     if kind == "shotgun":
         parts.append(
-            _rod(
+            rod(
                 (0, y_rec0 - barrel * 0.9, zc - br * 1.8),
                 (0, y_rec0 + 0.02, zc - br * 1.8),
                 br * 0.9,
@@ -62,26 +62,26 @@ def _rifle(rng: Rng) -> Parts:
             )
         )
         parts.append(
-            _rod(
-                (0, y_rec0 - hg - 0.05, zc - br * 2), (0, y_rec0 - 0.08, zc - br * 2), br * 1.8, 12
-            )
+            rod((0, y_rec0 - hg - 0.05, zc - br * 2), (0, y_rec0 - 0.08, zc - br * 2), br * 1.8, 12)
         )
     else:
-        hr = _u(rng, 0.016, 0.026)
-        parts.append(_box((-hr, y_rec0 - hg, zc - hr * 1.3), (hr, y_rec0 + 0.01, zc + hr * 0.8)))
+        hr = uniform(rng, 0.016, 0.026)
+        parts.append(
+            box_between((-hr, y_rec0 - hg, zc - hr * 1.3), (hr, y_rec0 + 0.01, zc + hr * 0.8))
+        )
     # stock: butt drops below the bore line
     y_s0 = y_rec0 + rec_len
-    s_len = _u(rng, 0.22, 0.32)
-    drop = _u(rng, 0.02, 0.07)
-    butt_h = _u(rng, 0.1, 0.15)
+    s_len = uniform(rng, 0.22, 0.32)
+    drop = uniform(rng, 0.02, 0.07)
+    butt_h = uniform(rng, 0.1, 0.15)
     sw = rec_w * 0.9
-    grip_style = _pick(rng, {"pistol": 0.55, "straight": 0.45})
-    stock_kind = _pick(rng, {"solid": 0.7, "skeleton": 0.3 if kind == "assault" else 0.05})
+    grip_style = pick_style(rng, {"pistol": 0.55, "straight": 0.45})
+    stock_kind = pick_style(rng, {"solid": 0.7, "skeleton": 0.3 if kind == "assault" else 0.05})
     top0 = zc + rec_h * 0.3
     if stock_kind == "solid":
         neck_h = rec_h * (0.9 if grip_style == "pistol" else 1.4)
         parts.append(
-            _hull(
+            hull_of(
                 [
                     (s * sw / 2, y, z)
                     for s in (-1, 1)
@@ -102,29 +102,29 @@ def _rifle(rng: Rng) -> Parts:
         c = np.array([0, y_s0 + s_len, top0 - drop - butt_h])
         e = np.array([0, y_s0 - 0.01, top0 - rec_h * 0.9])
         for p, q in ((a, b), (e, c), (b, c)):
-            parts.append(_rod(p, q, r, 8))
+            parts.append(rod(p, q, r, 8))
         parts.append(
-            _box(
+            box_between(
                 (-sw / 2, y_s0 + s_len - 0.02, top0 - drop - butt_h),
                 (sw / 2, y_s0 + s_len, top0 - drop),
             )
         )
     if grip_style == "pistol":
         g0 = np.array([0, y_s0 - 0.05, zc - rec_h * 0.5])
-        g1 = g0 + np.array([0, _u(rng, 0.03, 0.05), -_u(rng, 0.08, 0.11)])
-        parts.append(_beam(g0, g1, 0.015))
+        g1 = g0 + np.array([0, uniform(rng, 0.03, 0.05), -uniform(rng, 0.08, 0.11)])
+        parts.append(beam_between(g0, g1, 0.015))
     # trigger guard: a bar under the receiver held by two posts
     zg = zc - rec_h * 0.6
-    parts.append(_box((-0.004, y_s0 - 0.11, zg - 0.03), (0.004, y_s0 - 0.06, zg - 0.022)))
+    parts.append(box_between((-0.004, y_s0 - 0.11, zg - 0.03), (0.004, y_s0 - 0.06, zg - 0.022)))
     for yg in (y_s0 - 0.11, y_s0 - 0.068):
-        parts.append(_box((-0.004, yg, zg - 0.03), (0.004, yg + 0.008, zg + _EPS)))
+        parts.append(box_between((-0.004, yg, zg - 0.03), (0.004, yg + 0.008, zg + OVERLAP_M)))
     if kind != "shotgun" and rng.random() < 0.75:  # magazine
-        m_len = _u(rng, 0.04, 0.06)
-        m_h = _u(rng, 0.06, 0.14)
-        curve = _u(rng, 0.0, 0.05)
+        m_len = uniform(rng, 0.04, 0.06)
+        m_h = uniform(rng, 0.06, 0.14)
+        curve = uniform(rng, 0.0, 0.05)
         ym = y_rec0 + rec_len * 0.25
         parts.append(
-            _hull(
+            hull_of(
                 [
                     (s * rec_w * 0.4, y, z)
                     for s in (-1, 1)
@@ -138,13 +138,13 @@ def _rifle(rng: Rng) -> Parts:
             )
         )
     if rng.random() < (0.85 if kind == "sniper" else 0.3):  # scope
-        sr = _u(rng, 0.014, 0.022)
-        s_l = _u(rng, 0.18, 0.3)
-        zsc = zc + rec_h * 0.4 + sr + _u(rng, 0.015, 0.03)
+        sr = uniform(rng, 0.014, 0.022)
+        s_l = uniform(rng, 0.18, 0.3)
+        zsc = zc + rec_h * 0.4 + sr + uniform(rng, 0.015, 0.03)
         ys = y_rec0 + rec_len / 2 - s_l / 2
-        parts.append(_rod((0, ys, zsc), (0, ys + s_l, zsc), sr, 14))
+        parts.append(rod((0, ys, zsc), (0, ys + s_l, zsc), sr, 14))
         parts.append(
-            _lathe(
+            lathe(
                 [(0, 0), (sr * 1.6, 0), (sr * 1.6, 0.04), (sr, 0.07), (0, 0.07)],
                 (0, ys, zsc),
                 (0, 1, 0),
@@ -153,11 +153,13 @@ def _rifle(rng: Rng) -> Parts:
         )
         for f in (0.3, 0.7):
             y = ys + s_l * f
-            parts.append(_box((-0.006, y - 0.01, zc + rec_h * 0.35), (0.006, y + 0.01, zsc)))
+            parts.append(box_between((-0.006, y - 0.01, zc + rec_h * 0.35), (0.006, y + 0.01, zsc)))
     elif kind != "shotgun":  # iron sights / carry handle
-        parts.append(_box((-0.005, y_rec0 - hg, zc), (0.005, y_rec0 - hg + 0.015, zc + 0.04)))
+        parts.append(
+            box_between((-0.005, y_rec0 - hg, zc), (0.005, y_rec0 - hg + 0.015, zc + 0.04))
+        )
     if kind == "sniper" and rng.random() < 0.4:  # bipod
         y_b = y_rec0 - hg * 0.8
         for s in (-1, 1):
-            parts.append(_rod((0, y_b, zc - 0.02), (s * 0.05, y_b - 0.04, zc - 0.2), 0.005, 8))
+            parts.append(rod((0, y_b, zc - 0.02), (s * 0.05, y_b - 0.04, zc - 0.2), 0.005, 8))
     return parts

@@ -3,7 +3,7 @@ with their sub-types, are in :mod:`e2vlib.shapes.cabinets`).
 
 Each builder takes a ``numpy.random.Generator`` and returns the parts of one object
 (watertight ``trimesh.Trimesh`` solids) in rough metres, z up, front towards -y; parts that
-meet overlap by ``_EPS``. :func:`e2vlib.shapes.builders.make_shape` joins and normalizes them.
+meet overlap by ``OVERLAP_M``. :func:`e2vlib.shapes.builders.make_shape` joins and normalizes them.
 The order of the random draws is part of the output: changing it changes every mesh.
 """
 
@@ -11,72 +11,82 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2vlib.shapes.parts import _pick, _u
+from e2vlib.shapes.parts import pick_style, uniform
 from e2vlib.shapes.primitives import (
-    _EPS,
+    OVERLAP_M,
     Parts,
     Rng,
-    _beam,
-    _box,
-    _cbox,
-    _hull,
-    _lathe,
-    _rod,
-    _sphere,
+    beam_between,
+    box_between,
+    centred_box,
+    hull_of,
+    lathe,
+    rod,
+    sphere,
 )
 
 
 def _bench(rng: Rng) -> Parts:
-    width = _u(rng, 1.1, 1.8)
-    depth = _u(rng, 0.3, 0.45)
-    h = _u(rng, 0.38, 0.48)
-    t = _u(rng, 0.03, 0.06)
+    width = uniform(rng, 1.1, 1.8)
+    depth = uniform(rng, 0.3, 0.45)
+    h = uniform(rng, 0.38, 0.48)
+    t = uniform(rng, 0.03, 0.06)
     parts: Parts = []
     slats = int(rng.choice([1, 3, 4]))
     if slats == 1:
-        parts.append(_box((-width / 2, -depth / 2, h - t), (width / 2, depth / 2, h)))
+        parts.append(box_between((-width / 2, -depth / 2, h - t), (width / 2, depth / 2, h)))
     else:
         gap = 0.012
         w = (depth - gap * (slats - 1)) / slats
         for k in range(slats):
             y = -depth / 2 + k * (w + gap)
-            parts.append(_box((-width / 2, y, h - t), (width / 2, y + w, h)))
+            parts.append(box_between((-width / 2, y, h - t), (width / 2, y + w, h)))
         # cross bearers under the slats
         for x in (-0.35 * width, 0.35 * width):
             parts.append(
-                _box((x - 0.025, -depth / 2, h - t - 0.04), (x + 0.025, depth / 2, h - t + _EPS))
+                box_between(
+                    (x - 0.025, -depth / 2, h - t - 0.04), (x + 0.025, depth / 2, h - t + OVERLAP_M)
+                )
             )
-    legs = _pick(rng, {"posts": 0.45, "panels": 0.35, "frame": 0.2})
-    inset = _u(rng, 0.03, 0.15) * width
-    lw = _u(rng, 0.035, 0.06)
+    legs = pick_style(rng, {"posts": 0.45, "panels": 0.35, "frame": 0.2})
+    inset = uniform(rng, 0.03, 0.15) * width
+    lw = uniform(rng, 0.035, 0.06)
     xs = (-width / 2 + inset, width / 2 - inset)
     if legs == "posts":
         for x in xs:
             for y in (-depth / 2 + lw, depth / 2 - lw):
                 parts.append(
-                    _box((x - lw / 2, y - lw / 2, 0), (x + lw / 2, y + lw / 2, h - t + _EPS))
+                    box_between(
+                        (x - lw / 2, y - lw / 2, 0), (x + lw / 2, y + lw / 2, h - t + OVERLAP_M)
+                    )
                 )
         if rng.random() < 0.5:  # stretcher between the back legs
-            parts.append(_cbox((0, depth / 2 - lw, 0.12), (width - 2 * inset, lw * 0.7, lw * 0.7)))
+            parts.append(
+                centred_box((0, depth / 2 - lw, 0.12), (width - 2 * inset, lw * 0.7, lw * 0.7))
+            )
     elif legs == "panels":
-        pw = _u(rng, 0.04, 0.08)
+        pw = uniform(rng, 0.04, 0.08)
         for x in xs:
-            pd = depth * _u(rng, 0.8, 1.0)
-            parts.append(_box((x - pw / 2, -pd / 2, 0), (x + pw / 2, pd / 2, h - t + _EPS)))
+            pd = depth * uniform(rng, 0.8, 1.0)
+            parts.append(
+                box_between((x - pw / 2, -pd / 2, 0), (x + pw / 2, pd / 2, h - t + OVERLAP_M))
+            )
     else:  # A-frames
         for x in xs:
             for sy in (-1, 1):
                 parts.append(
-                    _beam((x, sy * depth * 0.55, 0), (x, sy * depth * 0.15, h - t / 2), lw / 2)
+                    beam_between(
+                        (x, sy * depth * 0.55, 0), (x, sy * depth * 0.15, h - t / 2), lw / 2
+                    )
                 )
-            parts.append(_cbox((x, 0, 0.15), (lw, depth, lw)))
+            parts.append(centred_box((x, 0, 0.15), (lw, depth, lw)))
     if rng.random() < 0.6:  # backrest
-        back_h = _u(rng, 0.25, 0.42)
-        tilt = _u(rng, 0.0, 0.12)
+        back_h = uniform(rng, 0.25, 0.42)
+        tilt = uniform(rng, 0.0, 0.12)
         y_back = depth / 2 - 0.03
         if rng.random() < 0.5:
             parts.append(
-                _hull(
+                hull_of(
                     [
                         (x, y_back + dy, z)
                         for x in (-width / 2, width / 2)
@@ -91,38 +101,42 @@ def _bench(rng: Rng) -> Parts:
             )
         else:
             for x in xs:
-                parts.append(_beam((x, y_back, h - t), (x, y_back + tilt, h + back_h), lw / 2))
+                parts.append(
+                    beam_between((x, y_back, h - t), (x, y_back + tilt, h + back_h), lw / 2)
+                )
             n_rails = int(rng.integers(2, 4))
             for k in range(n_rails):
                 f = (k + 1) / n_rails
                 parts.append(
-                    _cbox(
+                    centred_box(
                         (0, y_back + tilt * f, h + back_h * f - 0.04),
                         (width, 0.03, back_h / (n_rails + 1.5)),
                     )
                 )
         if rng.random() < 0.5:  # arm rests
-            arm_z = h + _u(rng, 0.18, 0.25)
+            arm_z = h + uniform(rng, 0.18, 0.25)
             for x in (-width / 2 + 0.03, width / 2 - 0.03):
-                parts.append(_cbox((x, 0.0, arm_z), (0.05, depth + 0.04, 0.04)))
+                parts.append(centred_box((x, 0.0, arm_z), (0.05, depth + 0.04, 0.04)))
                 parts.append(
-                    _cbox((x, -depth / 2 + 0.03, (arm_z + h) / 2), (0.04, 0.04, arm_z - h + 0.04))
+                    centred_box(
+                        (x, -depth / 2 + 0.03, (arm_z + h) / 2), (0.04, 0.04, arm_z - h + 0.04)
+                    )
                 )
     return parts
 
 
 def _chair(rng: Rng) -> Parts:
-    w = _u(rng, 0.4, 0.56)
-    d = _u(rng, 0.4, 0.55)
-    h = _u(rng, 0.4, 0.5)
-    t = _u(rng, 0.03, 0.08)
+    w = uniform(rng, 0.4, 0.56)
+    d = uniform(rng, 0.4, 0.55)
+    h = uniform(rng, 0.4, 0.5)
+    t = uniform(rng, 0.03, 0.08)
     parts: Parts = []
     round_seat = rng.random() < 0.15
     if round_seat:
-        parts.append(_rod((0, 0, h - t), (0, 0, h), max(w, d) / 2, 24))
+        parts.append(rod((0, 0, h - t), (0, 0, h), max(w, d) / 2, 24))
     else:
-        parts.append(_box((-w / 2, -d / 2, h - t), (w / 2, d / 2, h)))
-    legs = _pick(
+        parts.append(box_between((-w / 2, -d / 2, h - t), (w / 2, d / 2, h)))
+    legs = pick_style(
         rng,
         {
             "four": 0.5,
@@ -131,8 +145,8 @@ def _chair(rng: Rng) -> Parts:
             "panel": 0.0 if round_seat else 0.15,
         },
     )
-    lw = _u(rng, 0.025, 0.05)
-    splay = _u(rng, 0.0, 0.06) if rng.random() < 0.4 else 0.0
+    lw = uniform(rng, 0.025, 0.05)
+    splay = uniform(rng, 0.0, 0.06) if rng.random() < 0.4 else 0.0
     if legs == "four":
         round_legs = rng.random() < 0.4
         leg_x, leg_y = (w / 2 - lw, d / 2 - lw) if not round_seat else (0.3 * w, 0.3 * d)
@@ -140,43 +154,48 @@ def _chair(rng: Rng) -> Parts:
             for sy in (-1, 1):
                 top = (sx * leg_x, sy * leg_y, h - t / 2)
                 bot = (sx * (leg_x + splay), sy * (leg_y + splay), 0)
-                parts.append(_rod(bot, top, lw / 2, 10) if round_legs else _beam(bot, top, lw / 2))
+                parts.append(
+                    rod(bot, top, lw / 2, 10) if round_legs else beam_between(bot, top, lw / 2)
+                )
         if rng.random() < 0.35:  # stretchers
-            zs = _u(rng, 0.1, 0.2)
+            zs = uniform(rng, 0.1, 0.2)
             out = splay * (1 - zs / (h - t / 2))  # how far the splayed legs lean out at zs
             for sx in (-1, 1):
                 parts.append(
-                    _cbox((sx * (leg_x + out), 0, zs), (lw * 0.6, 2 * (leg_y + out), lw * 0.6))
+                    centred_box(
+                        (sx * (leg_x + out), 0, zs), (lw * 0.6, 2 * (leg_y + out), lw * 0.6)
+                    )
                 )
     elif legs == "pedestal":
         col_h = h - t / 2
-        parts.append(_rod((0, 0, 0.06), (0, 0, col_h), _u(rng, 0.02, 0.035), 14))
+        parts.append(rod((0, 0, 0.06), (0, 0, col_h), uniform(rng, 0.02, 0.035), 14))
         n_spokes = 5
-        reach = _u(rng, 0.25, 0.33)
-        a0 = _u(rng, 0, 2 * np.pi / n_spokes)
+        reach = uniform(rng, 0.25, 0.33)
+        a0 = uniform(rng, 0, 2 * np.pi / n_spokes)
         for k in range(n_spokes):
             a = a0 + 2 * np.pi * k / n_spokes
             end = (reach * np.cos(a), reach * np.sin(a), 0.04)
-            parts.append(_beam((0, 0, 0.06), end, 0.018))
-            parts.append(_sphere((end[0], end[1], 0.025), 0.025, 1))
-        parts.append(_box((-0.09, -0.09, h - t - 0.04), (0.09, 0.09, h - t + _EPS)))
+            parts.append(beam_between((0, 0, 0.06), end, 0.018))
+            parts.append(sphere((end[0], end[1], 0.025), 0.025, 1))
+        parts.append(box_between((-0.09, -0.09, h - t - 0.04), (0.09, 0.09, h - t + OVERLAP_M)))
     elif legs == "sled":
         for sx in (-1, 1):
             x = sx * (w / 2 - 0.02)
             r = 0.012
-            parts.append(_rod((x, -d / 2, 0.012), (x, d / 2, 0.012), r, 8))
-            parts.append(_rod((x, -d / 2 + 0.02, 0.012), (x, -d / 2 + 0.04, h - t / 2), r, 8))
-            parts.append(_rod((x, d / 2 - 0.02, 0.012), (x, d / 2 - 0.06, h - t / 2), r, 8))
+            parts.append(rod((x, -d / 2, 0.012), (x, d / 2, 0.012), r, 8))
+            parts.append(rod((x, -d / 2 + 0.02, 0.012), (x, -d / 2 + 0.04, h - t / 2), r, 8))
+            parts.append(rod((x, d / 2 - 0.02, 0.012), (x, d / 2 - 0.06, h - t / 2), r, 8))
     else:  # solid side panels
-        pt = _u(rng, 0.03, 0.05)
+        pt = uniform(rng, 0.03, 0.05)
         for sx in (-1, 1):
             parts.append(
-                _box(
-                    (sx * w / 2, -d / 2 + 0.02, 0), (sx * (w / 2 - pt), d / 2 - 0.02, h - t + _EPS)
+                box_between(
+                    (sx * w / 2, -d / 2 + 0.02, 0),
+                    (sx * (w / 2 - pt), d / 2 - 0.02, h - t + OVERLAP_M),
                 )
             )
     # back
-    back = _pick(
+    back = pick_style(
         rng,
         {
             "panel": 0.45,
@@ -185,17 +204,17 @@ def _chair(rng: Rng) -> Parts:
             "low": 0.15,
         },
     )
-    bh = _u(rng, 0.12, 0.2) if back == "low" else _u(rng, 0.35, 0.6)
-    tilt = _u(rng, 0.0, 0.12)
-    bt = _u(rng, 0.025, 0.06)
+    bh = uniform(rng, 0.12, 0.2) if back == "low" else uniform(rng, 0.35, 0.6)
+    tilt = uniform(rng, 0.0, 0.12)
+    bt = uniform(rng, 0.025, 0.06)
     yb = d / 2 - bt
     z0 = h
     if back in ("panel", "low"):
-        bw = w * (_u(rng, 0.85, 1.0) if not round_seat else _u(rng, 0.5, 0.7))
+        bw = w * (uniform(rng, 0.85, 1.0) if not round_seat else uniform(rng, 0.5, 0.7))
         rounded = rng.random() < 0.3
-        top_w = bw * (_u(rng, 0.55, 0.8) if rounded else 1.0)
+        top_w = bw * (uniform(rng, 0.55, 0.8) if rounded else 1.0)
         parts.append(
-            _hull(
+            hull_of(
                 [
                     (s * ww, yb + dy, z)
                     for s in (-1, 1)
@@ -214,20 +233,22 @@ def _chair(rng: Rng) -> Parts:
         pw = max(lw, 0.03)
         for sx in (-1, 1):
             parts.append(
-                _beam(
+                beam_between(
                     (sx * (w / 2 - pw / 2), yb + bt / 2, z0 - t),
                     (sx * (w / 2 - pw / 2), yb + bt / 2 + tilt, z0 + bh),
                     pw / 2,
                 )
             )
-        top_h = _u(rng, 0.05, 0.12)
-        parts.append(_box((-w / 2, yb + tilt, z0 + bh - top_h), (w / 2, yb + tilt + bt, z0 + bh)))
+        top_h = uniform(rng, 0.05, 0.12)
+        parts.append(
+            box_between((-w / 2, yb + tilt, z0 + bh - top_h), (w / 2, yb + tilt + bt, z0 + bh))
+        )
         if back == "slats":
             n = int(rng.integers(2, 6))
             for k in range(n):
                 x = -w / 2 + pw + (w - 2 * pw) * (k + 0.5) / n
                 parts.append(
-                    _beam(
+                    beam_between(
                         (x, yb + bt / 2, z0 - t / 2),
                         (x, yb + bt / 2 + tilt * (1 - top_h / bh), z0 + bh - top_h / 2),
                         0.012,
@@ -239,56 +260,60 @@ def _chair(rng: Rng) -> Parts:
                 f = (k + 1) / (n + 1)
                 z = z0 + (bh - top_h) * f
                 parts.append(
-                    _box(
+                    box_between(
                         (-w / 2, yb + tilt * f, z - 0.025),
                         (w / 2, yb + tilt * f + bt * 0.7, z + 0.025),
                     )
                 )
     if rng.random() < 0.35 and not round_seat:  # arms
-        za = h + _u(rng, 0.18, 0.26)
+        za = h + uniform(rng, 0.18, 0.26)
         for sx in (-1, 1):
             x = sx * (w / 2 + 0.005)
-            parts.append(_box((x - 0.025, -d / 2 + 0.02, za - 0.03), (x + 0.025, d / 2, za)))
-            parts.append(_box((x - 0.015, -d / 2 + 0.04, h - t), (x + 0.015, -d / 2 + 0.08, za)))
-            parts.append(_box((x - 0.015, d / 2 - 0.06, h - t), (x + 0.015, d / 2 - 0.02, za)))
+            parts.append(box_between((x - 0.025, -d / 2 + 0.02, za - 0.03), (x + 0.025, d / 2, za)))
+            parts.append(
+                box_between((x - 0.015, -d / 2 + 0.04, h - t), (x + 0.015, -d / 2 + 0.08, za))
+            )
+            parts.append(
+                box_between((x - 0.015, d / 2 - 0.06, h - t), (x + 0.015, d / 2 - 0.02, za))
+            )
     return parts
 
 
 def _lamp(rng: Rng) -> Parts:
-    kind = _pick(rng, {"table": 0.35, "floor": 0.25, "desk": 0.25, "pendant": 0.15})
+    kind = pick_style(rng, {"table": 0.35, "floor": 0.25, "desk": 0.25, "pendant": 0.15})
     parts: Parts = []
     sec = 24
     # base
     if kind != "pendant":
-        base = _pick(
+        base = pick_style(
             rng,
             {"disc": 0.5, "square": 0.2, "dome": 0.2, "tripod": 0.1 if kind == "floor" else 0.0},
         )
-        br = _u(rng, 0.08, 0.16) if kind != "floor" else _u(rng, 0.14, 0.22)
-        bh = _u(rng, 0.015, 0.04)
+        br = uniform(rng, 0.08, 0.16) if kind != "floor" else uniform(rng, 0.14, 0.22)
+        bh = uniform(rng, 0.015, 0.04)
         if base == "disc":
-            parts.append(_rod((0, 0, 0), (0, 0, bh), br, sec))
+            parts.append(rod((0, 0, 0), (0, 0, bh), br, sec))
         elif base == "square":
-            parts.append(_cbox((0, 0, bh / 2), (1.6 * br, 1.6 * br, bh)))
+            parts.append(centred_box((0, 0, bh / 2), (1.6 * br, 1.6 * br, bh)))
         elif base == "dome":
             bh *= 2
             parts.append(
-                _lathe(
+                lathe(
                     [(0, 0), (br, 0), (br * 0.8, bh * 0.6), (br * 0.25, bh), (0, bh)], sections=sec
                 )
             )
         else:
-            bh = _u(rng, 0.2, 0.35)
+            bh = uniform(rng, 0.2, 0.35)
             for k in range(3):
                 a = 2 * np.pi * k / 3 + np.pi / 2
-                parts.append(_rod((br * np.cos(a), br * np.sin(a), 0), (0, 0, bh), 0.01, 8))
+                parts.append(rod((br * np.cos(a), br * np.sin(a), 0), (0, 0, bh), 0.01, 8))
     if kind in ("table", "floor"):
-        height = _u(rng, 0.35, 0.6) if kind == "table" else _u(rng, 1.2, 1.8)
+        height = uniform(rng, 0.35, 0.6) if kind == "table" else uniform(rng, 1.2, 1.8)
         if kind == "table" and rng.random() < 0.45:  # vase-shaped body
-            vr = _u(rng, 0.06, 0.12)
-            vh = height * _u(rng, 0.4, 0.6)
+            vr = uniform(rng, 0.06, 0.12)
+            vh = height * uniform(rng, 0.4, 0.6)
             parts.append(
-                _lathe(
+                lathe(
                     [
                         (0, 0),
                         (vr * 0.6, 0),
@@ -301,78 +326,78 @@ def _lamp(rng: Rng) -> Parts:
                     sections=sec,
                 )
             )
-        parts.append(_rod((0, 0, 0), (0, 0, height), _u(rng, 0.008, 0.018), 10))
+        parts.append(rod((0, 0, 0), (0, 0, height), uniform(rng, 0.008, 0.018), 10))
         z_top = height
     elif kind == "desk":
-        l1 = _u(rng, 0.25, 0.4)
-        l2 = _u(rng, 0.25, 0.4)
-        a1 = np.radians(_u(rng, 60, 85))
-        a2 = np.radians(_u(rng, -20, 25))
+        l1 = uniform(rng, 0.25, 0.4)
+        l2 = uniform(rng, 0.25, 0.4)
+        a1 = np.radians(uniform(rng, 60, 85))
+        a2 = np.radians(uniform(rng, -20, 25))
         p0 = np.array([0, 0.04, bh])
         p1 = p0 + l1 * np.array([0, np.cos(a1), np.sin(a1)])
         p2 = p1 + l2 * np.array([0, -np.cos(a2), np.sin(a2)])
         for a, b in ((p0, p1), (p1, p2)):
             for sx in (-0.012, 0.012):
-                parts.append(_rod(a + (sx, 0, 0), b + (sx, 0, 0), 0.007, 8))
-        parts.append(_sphere(p1, 0.02, 1))
-        parts.append(_sphere(p0, 0.022, 1))
+                parts.append(rod(a + (sx, 0, 0), b + (sx, 0, 0), 0.007, 8))
+        parts.append(sphere(p1, 0.02, 1))
+        parts.append(sphere(p0, 0.022, 1))
         # shade: a cone opening downwards and forwards
-        sr = _u(rng, 0.06, 0.1)
-        sl = _u(rng, 0.08, 0.16)
+        sr = uniform(rng, 0.06, 0.1)
+        sl = uniform(rng, 0.08, 0.16)
         axis = np.array([0, -np.sin(np.radians(30)), -np.cos(np.radians(30))])
-        parts.append(_lathe([(0, 0), (0.025, 0), (sr, sl), (0, sl)], p2 - axis * 0.02, axis, sec))
+        parts.append(lathe([(0, 0), (0.025, 0), (sr, sl), (0, sl)], p2 - axis * 0.02, axis, sec))
         return parts
     else:  # pendant: canopy at the top, cord, shade below
-        height = _u(rng, 0.8, 1.3)
-        parts.append(_rod((0, 0, height - 0.03), (0, 0, height), 0.06, sec))
-        z_top = height * _u(rng, 0.35, 0.6)
-        parts.append(_rod((0, 0, z_top - 0.02), (0, 0, height), 0.006, 8))
+        height = uniform(rng, 0.8, 1.3)
+        parts.append(rod((0, 0, height - 0.03), (0, 0, height), 0.06, sec))
+        z_top = height * uniform(rng, 0.35, 0.6)
+        parts.append(rod((0, 0, z_top - 0.02), (0, 0, height), 0.006, 8))
     # shade (hangs from or sits on z_top)
     shades = {"frustum": 0.45, "drum": 0.2, "globe": 0.12, "dome": 0.23}
     if kind == "floor":
         shades = {"frustum": 0.55, "drum": 0.25, "globe": 0.08, "dome": 0.12}
-    shade = _pick(rng, shades)
-    sr = _u(rng, 0.12, 0.25) if kind != "table" else _u(rng, 0.1, 0.2)
-    sh = _u(rng, 0.12, 0.3) if kind != "table" else _u(rng, 0.1, 0.22)
+    shade = pick_style(rng, shades)
+    sr = uniform(rng, 0.12, 0.25) if kind != "table" else uniform(rng, 0.1, 0.2)
+    sh = uniform(rng, 0.12, 0.3) if kind != "table" else uniform(rng, 0.1, 0.22)
     if kind == "table" or kind == "floor":
         z_shade = z_top - sh * 0.7
     else:
         z_shade = z_top - sh
     if shade == "frustum":
-        top_r = sr * _u(rng, 0.4, 0.75)
-        parts.append(_lathe([(0, 0), (sr, 0), (top_r, sh), (0, sh)], (0, 0, z_shade), sections=sec))
+        top_r = sr * uniform(rng, 0.4, 0.75)
+        parts.append(lathe([(0, 0), (sr, 0), (top_r, sh), (0, sh)], (0, 0, z_shade), sections=sec))
     elif shade == "drum":
-        parts.append(_rod((0, 0, z_shade), (0, 0, z_shade + sh), sr * 0.85, sec))
+        parts.append(rod((0, 0, z_shade), (0, 0, z_shade + sh), sr * 0.85, sec))
     elif shade == "globe":
-        r = {"table": _u(rng, 0.07, 0.12), "floor": _u(rng, 0.13, 0.2)}.get(
-            kind, _u(rng, 0.08, 0.15)
+        r = {"table": uniform(rng, 0.07, 0.12), "floor": uniform(rng, 0.13, 0.2)}.get(
+            kind, uniform(rng, 0.08, 0.15)
         )
         parts.append(
-            _sphere((0, 0, z_top + r * (0.3 if kind == "pendant" else -0.3) - r * 0.5), r, 2)
+            sphere((0, 0, z_top + r * (0.3 if kind == "pendant" else -0.3) - r * 0.5), r, 2)
         )
     else:
         n = 6
         prof = [(0, 0)] + [(sr * np.cos(a), sh * np.sin(a)) for a in np.linspace(0, np.pi / 2, n)]
-        parts.append(_lathe(prof, (0, 0, z_shade), sections=sec))
+        parts.append(lathe(prof, (0, 0, z_shade), sections=sec))
     return parts
 
 
 def _sofa(rng: Rng) -> Parts:
-    w = _u(rng, 1.3, 2.3)
-    d = _u(rng, 0.75, 0.95)
-    seat = _u(rng, 0.38, 0.46)
-    leg_h = _u(rng, 0.05, 0.15) if rng.random() < 0.6 else 0.0
-    cush = _u(rng, 0.08, 0.15)
-    back_t = _u(rng, 0.15, 0.25)
-    back_top = _u(rng, 0.7, 0.95)
-    arm = _pick(rng, {"none": 0.1, "low": 0.3, "high": 0.35, "rolled": 0.25})
-    arm_w = _u(rng, 0.1, 0.22) if arm != "none" else 0.0
+    w = uniform(rng, 1.3, 2.3)
+    d = uniform(rng, 0.75, 0.95)
+    seat = uniform(rng, 0.38, 0.46)
+    leg_h = uniform(rng, 0.05, 0.15) if rng.random() < 0.6 else 0.0
+    cush = uniform(rng, 0.08, 0.15)
+    back_t = uniform(rng, 0.15, 0.25)
+    back_top = uniform(rng, 0.7, 0.95)
+    arm = pick_style(rng, {"none": 0.1, "low": 0.3, "high": 0.35, "rolled": 0.25})
+    arm_w = uniform(rng, 0.1, 0.22) if arm != "none" else 0.0
     parts: Parts = []
     z_base = seat - cush
-    parts.append(_box((-w / 2, -d / 2, max(leg_h, 0.0)), (w / 2, d / 2, z_base)))
-    tilt = _u(rng, 0.0, 0.1)
+    parts.append(box_between((-w / 2, -d / 2, max(leg_h, 0.0)), (w / 2, d / 2, z_base)))
+    tilt = uniform(rng, 0.0, 0.1)
     parts.append(
-        _hull(
+        hull_of(
             [
                 (x, y, z)
                 for x in (-w / 2, w / 2)
@@ -387,16 +412,16 @@ def _sofa(rng: Rng) -> Parts:
     )
     if arm != "none":
         arm_top = {
-            "low": seat + _u(rng, 0.1, 0.18),
-            "high": seat + _u(rng, 0.2, 0.3),
-            "rolled": seat + _u(rng, 0.15, 0.25),
+            "low": seat + uniform(rng, 0.1, 0.18),
+            "high": seat + uniform(rng, 0.2, 0.3),
+            "rolled": seat + uniform(rng, 0.15, 0.25),
         }[arm]
         for s in (-1, 1):
             x_out, x_in = s * w / 2, s * (w / 2 - arm_w)
-            parts.append(_box((x_in, -d / 2, max(leg_h, 0.0)), (x_out, d / 2, arm_top)))
+            parts.append(box_between((x_in, -d / 2, max(leg_h, 0.0)), (x_out, d / 2, arm_top)))
             if arm == "rolled":
                 parts.append(
-                    _rod(
+                    rod(
                         ((x_in + x_out) / 2, -d / 2 - 0.01, arm_top),
                         ((x_in + x_out) / 2, d / 2, arm_top),
                         arm_w * 0.6,
@@ -404,66 +429,69 @@ def _sofa(rng: Rng) -> Parts:
                     )
                 )
     inner = w - 2 * arm_w
-    n_seats = int(np.clip(round(inner / _u(rng, 0.55, 0.8)), 1, 4))
+    n_seats = int(np.clip(round(inner / uniform(rng, 0.55, 0.8)), 1, 4))
     cw = inner / n_seats
     back_cush = rng.random() < 0.5
     for k in range(n_seats):
         x0 = -inner / 2 + k * cw + 0.01
         parts.append(
-            _box((x0, -d / 2 - 0.02, z_base - _EPS), (x0 + cw - 0.02, d / 2 - back_t + _EPS, seat))
+            box_between(
+                (x0, -d / 2 - 0.02, z_base - OVERLAP_M),
+                (x0 + cw - 0.02, d / 2 - back_t + OVERLAP_M, seat),
+            )
         )
         if back_cush:
             parts.append(
-                _box(
-                    (x0, d / 2 - back_t - 0.12, seat - _EPS),
+                box_between(
+                    (x0, d / 2 - back_t - 0.12, seat - OVERLAP_M),
                     (x0 + cw - 0.02, d / 2 - back_t + 0.02, seat + (back_top - seat) * 0.8),
                 )
             )
     if rng.random() < 0.25:  # chaise longue (L-shape) on one side
         s = 1 if rng.random() < 0.5 else -1
-        ext = _u(rng, 0.5, 0.8)
+        ext = uniform(rng, 0.5, 0.8)
         x0, x1 = s * (w / 2 - arm_w - cw), s * (w / 2)
-        parts.append(_box((x0, -d / 2 - ext, max(leg_h, 0.0)), (x1, -d / 2 + 0.01, z_base)))
+        parts.append(box_between((x0, -d / 2 - ext, max(leg_h, 0.0)), (x1, -d / 2 + 0.01, z_base)))
         parts.append(
-            _box(
-                (x0 - s * 0.01, -d / 2 - ext + 0.01, z_base - _EPS),
+            box_between(
+                (x0 - s * 0.01, -d / 2 - ext + 0.01, z_base - OVERLAP_M),
                 (x1 - s * (arm_w + 0.01), -d / 2, seat),
             )
         )
     if leg_h > 0:
-        lr = _u(rng, 0.015, 0.03)
+        lr = uniform(rng, 0.015, 0.03)
         xs = [-w / 2 + 0.06, w / 2 - 0.06] + ([0.0] if w > 1.8 else [])
         for x in xs:
             for y in (-d / 2 + 0.06, d / 2 - 0.06):
-                parts.append(_rod((x, y, 0), (x, y, leg_h + 0.01), lr, 8))
+                parts.append(rod((x, y, 0), (x, y, leg_h + 0.01), lr, 8))
     return parts
 
 
 def _table(rng: Rng) -> Parts:
-    kind = _pick(rng, {"dining": 0.4, "coffee": 0.25, "bar": 0.1, "desk": 0.25})
-    top = _pick(
+    kind = pick_style(rng, {"dining": 0.4, "coffee": 0.25, "bar": 0.1, "desk": 0.25})
+    top = pick_style(
         rng, {"rect": 0.55, "round": 0.3, "oval": 0.15} if kind != "desk" else {"rect": 1.0}
     )
     h = {
-        "dining": _u(rng, 0.7, 0.78),
-        "coffee": _u(rng, 0.35, 0.5),
-        "bar": _u(rng, 0.95, 1.1),
-        "desk": _u(rng, 0.7, 0.78),
+        "dining": uniform(rng, 0.7, 0.78),
+        "coffee": uniform(rng, 0.35, 0.5),
+        "bar": uniform(rng, 0.95, 1.1),
+        "desk": uniform(rng, 0.7, 0.78),
     }[kind]
     if top == "round":
-        w = d = 2 * (_u(rng, 0.25, 0.4) if kind == "bar" else _u(rng, 0.4, 0.65))
+        w = d = 2 * (uniform(rng, 0.25, 0.4) if kind == "bar" else uniform(rng, 0.4, 0.65))
     else:
-        w = _u(rng, 0.9, 1.9)
-        d = w * _u(rng, 0.4, 0.75)
-    t = _u(rng, 0.02, 0.06)
+        w = uniform(rng, 0.9, 1.9)
+        d = w * uniform(rng, 0.4, 0.75)
+    t = uniform(rng, 0.02, 0.06)
     parts: Parts = []
     if top == "rect":
-        parts.append(_box((-w / 2, -d / 2, h - t), (w / 2, d / 2, h)))
+        parts.append(box_between((-w / 2, -d / 2, h - t), (w / 2, d / 2, h)))
     else:
-        disc = _rod((0, 0, h - t), (0, 0, h), 0.5, 40)
+        disc = rod((0, 0, h - t), (0, 0, h), 0.5, 40)
         disc.apply_scale((w, d, 1.0))
         parts.append(disc)
-    legs = _pick(
+    legs = pick_style(
         rng,
         {
             "four": 0.55,
@@ -471,26 +499,26 @@ def _table(rng: Rng) -> Parts:
             "trestle": 0.2 if top == "rect" else 0.0,
         },
     )
-    lw = _u(rng, 0.03, 0.07)
+    lw = uniform(rng, 0.03, 0.07)
     if kind == "desk" and rng.random() < 0.6:  # drawer pedestal on one side, legs on the other
         s = 1 if rng.random() < 0.5 else -1
-        pw = _u(rng, 0.3, 0.45)
+        pw = uniform(rng, 0.3, 0.45)
         parts.append(
-            _box(
+            box_between(
                 (s * (w / 2 - 0.02), -d / 2 + 0.03, 0),
-                (s * (w / 2 - pw), d / 2 - 0.02, h - t + _EPS),
+                (s * (w / 2 - pw), d / 2 - 0.02, h - t + OVERLAP_M),
             )
         )
         for y in (-d / 2 + lw, d / 2 - lw):
             parts.append(
-                _box(
+                box_between(
                     (-s * (w / 2 - lw) - lw / 2, y - lw / 2, 0),
-                    (-s * (w / 2 - lw) + lw / 2, y + lw / 2, h - t + _EPS),
+                    (-s * (w / 2 - lw) + lw / 2, y + lw / 2, h - t + OVERLAP_M),
                 )
             )
         return parts
     if legs == "four":
-        inset = _u(rng, 0.02, 0.12) * min(w, d) + lw
+        inset = uniform(rng, 0.02, 0.12) * min(w, d) + lw
         if top == "rect":
             corners = [
                 (sx * (w / 2 - inset), sy * (d / 2 - inset)) for sx in (-1, 1) for sy in (-1, 1)
@@ -506,68 +534,77 @@ def _table(rng: Rng) -> Parts:
                 for k in range(n)
             ]
         round_legs = rng.random() < 0.4
-        splay = _u(rng, 0.0, 0.06) if rng.random() < 0.3 else 0.0
+        splay = uniform(rng, 0.0, 0.06) if rng.random() < 0.3 else 0.0
         for x, y in corners:
             nrm = np.hypot(x, y)
             bot = (x + splay * x / nrm, y + splay * y / nrm, 0)
             if round_legs:
-                parts.append(_rod(bot, (x, y, h - t / 2), lw / 2, 10))
+                parts.append(rod(bot, (x, y, h - t / 2), lw / 2, 10))
             else:
-                parts.append(_beam(bot, (x, y, h - t / 2), lw / 2))
+                parts.append(beam_between(bot, (x, y, h - t / 2), lw / 2))
         if top == "rect" and rng.random() < 0.5:  # apron
-            ah = _u(rng, 0.05, 0.12)
+            ah = uniform(rng, 0.05, 0.12)
             for s in (-1, 1):
                 parts.append(
-                    _box(
+                    box_between(
                         (-w / 2 + inset, s * (d / 2 - inset) - 0.01, h - t - ah),
-                        (w / 2 - inset, s * (d / 2 - inset) + 0.01, h - t + _EPS),
+                        (w / 2 - inset, s * (d / 2 - inset) + 0.01, h - t + OVERLAP_M),
                     )
                 )
                 parts.append(
-                    _box(
+                    box_between(
                         (s * (w / 2 - inset) - 0.01, -d / 2 + inset, h - t - ah),
-                        (s * (w / 2 - inset) + 0.01, d / 2 - inset, h - t + _EPS),
+                        (s * (w / 2 - inset) + 0.01, d / 2 - inset, h - t + OVERLAP_M),
                     )
                 )
         if rng.random() < (0.5 if kind == "coffee" else 0.15):  # lower shelf
-            zs = _u(rng, 0.08, 0.2)
+            zs = uniform(rng, 0.08, 0.2)
             out = splay * (1 - zs / (h - t / 2))  # how far the splayed legs lean out at zs
             ex, ey = w / 2 - inset + out, d / 2 - inset + out
             if top == "rect":
-                parts.append(_box((-ex, -ey, zs), (ex, ey, zs + 0.02)))
+                parts.append(box_between((-ex, -ey, zs), (ex, ey, zs + 0.02)))
             else:
-                shelf = _rod((0, 0, zs), (0, 0, zs + 0.02), 1.0, 32)
+                shelf = rod((0, 0, zs), (0, 0, zs + 0.02), 1.0, 32)
                 shelf.apply_scale((ex, ey, 1.0))
                 parts.append(shelf)
     elif legs == "pedestal":
-        cr = _u(rng, 0.03, 0.08)
-        parts.append(_rod((0, 0, 0), (0, 0, h - t / 2), cr, 16))
+        cr = uniform(rng, 0.03, 0.08)
+        parts.append(rod((0, 0, 0), (0, 0, h - t / 2), cr, 16))
         if rng.random() < 0.5:
-            parts.append(_rod((0, 0, 0), (0, 0, 0.03), _u(rng, 0.2, 0.35) * max(w, d) + 0.1, 28))
+            parts.append(
+                rod((0, 0, 0), (0, 0, 0.03), uniform(rng, 0.2, 0.35) * max(w, d) + 0.1, 28)
+            )
         else:
             reach = 0.35 * max(w, d)
             n = int(rng.choice([3, 4]))
             for k in range(n):
                 a = 2 * np.pi * k / n + np.pi / 4
                 parts.append(
-                    _beam((0, 0, 0.03), (reach * np.cos(a), reach * np.sin(a), 0.03), 0.025)
+                    beam_between((0, 0, 0.03), (reach * np.cos(a), reach * np.sin(a), 0.03), 0.025)
                 )
     else:  # trestle: two end frames and a stretcher
-        inset = _u(rng, 0.05, 0.2) * w
+        inset = uniform(rng, 0.05, 0.2) * w
         for s in (-1, 1):
             x = s * (w / 2 - inset)
             if rng.random() < 0.5:
                 parts.append(
-                    _box((x - lw / 2, -d / 2 + 0.05, 0), (x + lw / 2, d / 2 - 0.05, h - t + _EPS))
-                )
-            else:
-                parts.append(_box((x - lw / 2, -lw, 0), (x + lw / 2, lw, h - t + _EPS)))
-                parts.append(_box((x - lw / 2, -d / 2 + 0.05, 0), (x + lw / 2, d / 2 - 0.05, 0.05)))
-                parts.append(
-                    _box(
-                        (x - lw / 2, -d / 2 + 0.08, h - t - 0.05),
-                        (x + lw / 2, d / 2 - 0.08, h - t + _EPS),
+                    box_between(
+                        (x - lw / 2, -d / 2 + 0.05, 0),
+                        (x + lw / 2, d / 2 - 0.05, h - t + OVERLAP_M),
                     )
                 )
-        parts.append(_box((-w / 2 + inset, -0.02, h * 0.3), (w / 2 - inset, 0.02, h * 0.3 + 0.05)))
+            else:
+                parts.append(box_between((x - lw / 2, -lw, 0), (x + lw / 2, lw, h - t + OVERLAP_M)))
+                parts.append(
+                    box_between((x - lw / 2, -d / 2 + 0.05, 0), (x + lw / 2, d / 2 - 0.05, 0.05))
+                )
+                parts.append(
+                    box_between(
+                        (x - lw / 2, -d / 2 + 0.08, h - t - 0.05),
+                        (x + lw / 2, d / 2 - 0.08, h - t + OVERLAP_M),
+                    )
+                )
+        parts.append(
+            box_between((-w / 2 + inset, -0.02, h * 0.3), (w / 2 - inset, 0.02, h * 0.3 + 0.05))
+        )
     return parts

@@ -79,8 +79,10 @@ def load_mesh(path: str | os.PathLike) -> trimesh.Trimesh:
         vertices = [np.asarray(getattr(g, "vertices", np.zeros((0, 3)))) for g in parts]
         bad = sum(int((~np.isfinite(v)).any(axis=1).sum()) for v in vertices if v.ndim == 2)
         if bad:
-            raise ValueError(f"{p}: {bad} of {sum(len(v) for v in vertices)} vertices have "
-                             "NaN or infinite coordinates; fix or re-export the mesh")
+            raise ValueError(
+                f"{p}: {bad} of {sum(len(v) for v in vertices)} vertices have "
+                "NaN or infinite coordinates; fix or re-export the mesh"
+            )
         loaded = trimesh.load(str(p), force="mesh", process=True, skip_materials=True)
     except ValueError as err:
         if str(err).startswith(str(p)):

@@ -1,6 +1,6 @@
-"""Helpers every category builder shares: drawing a part's proportions (:func:`_u`) and
-style (:func:`_pick`) from the random stream, and joining the parts into one mesh
-(:func:`_union`).
+"""Helpers every category builder shares: drawing a part's proportions (:func:`uniform`) and
+style (:func:`pick_style`) from the random stream, and joining the parts into one mesh
+(:func:`union_parts`).
 """
 
 from __future__ import annotations
@@ -11,19 +11,19 @@ import trimesh
 from e2vlib.shapes.primitives import Parts, Rng
 
 
-def _u(rng: Rng, lo: float, hi: float) -> float:
+def uniform(rng: Rng, lo: float, hi: float) -> float:
     """One uniform draw in ``[lo, hi)`` as a Python float."""
     return float(rng.uniform(lo, hi))
 
 
-def _pick(rng: Rng, options: dict[str, float]) -> str:
+def pick_style(rng: Rng, options: dict[str, float]) -> str:
     """One name of ``options`` drawn with probability proportional to its weight."""
     names = list(options)
     p = np.asarray(list(options.values()), float)
     return names[int(rng.choice(len(names), p=p / p.sum()))]
 
 
-def _union(parts: Parts) -> trimesh.Trimesh:
+def union_parts(parts: Parts) -> trimesh.Trimesh:
     """Boolean union of watertight parts with manifold3d; concatenation if that fails."""
     try:
         mesh = trimesh.boolean.union(parts, engine="manifold")

@@ -10,7 +10,7 @@ of ShapeNet's speaker category rather than one box of random proportions:
 
 Each builder takes a ``numpy.random.Generator`` and returns the parts of one object
 (watertight ``trimesh.Trimesh`` solids) in rough metres, z up, front towards -y; parts that
-meet overlap by ``_EPS``. :func:`e2vlib.shapes.builders.make_shape` joins and normalizes them.
+meet overlap by ``OVERLAP_M``. :func:`e2vlib.shapes.builders.make_shape` joins and normalizes them.
 The order of the random draws is part of the output: changing it changes every mesh.
 """
 
@@ -19,17 +19,17 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from e2vlib.shapes.parts import _pick, _u
+from e2vlib.shapes.parts import pick_style, uniform
 from e2vlib.shapes.primitives import (
-    _EPS,
+    OVERLAP_M,
     Parts,
     Rng,
-    _box,
-    _cbox,
-    _hull,
-    _lathe,
-    _rod,
-    _sphere,
+    box_between,
+    centred_box,
+    hull_of,
+    lathe,
+    rod,
+    sphere,
 )
 
 SPEAKER_KINDS = {
@@ -54,7 +54,7 @@ def _enclosure(
 ) -> trimesh.Trimesh:
     """A box of ``w x d x h`` centred on ``(x, 0)`` from ``z0`` up, its top edge at the back
     pulled forward by ``slant`` and its front edges bevelled by ``bevel``."""
-    return _hull(
+    return hull_of(
         [
             (x + sx, y, z)
             for sx in (-w / 2, w / 2)
@@ -75,14 +75,14 @@ def _driver(center, normal, r: float) -> Parts:
     through ``center`` (normal ``normal``, pointing out) and a dust cap."""
     c, n = np.asarray(center, float), np.asarray(normal, float)
     n = n / np.linalg.norm(n)
-    return [_rod(c - n * 0.01, c + n * 0.012, r, 24), _sphere(c + n * 0.012, r * 0.35, 1)]
+    return [rod(c - n * 0.01, c + n * 0.012, r, 24), sphere(c + n * 0.012, r * 0.35, 1)]
 
 
 def _front_drivers(
     rng: Rng, w: float, d: float, z0: float, h: float, n_woofers: int, x: float = 0.0
 ) -> Parts:
     """A tweeter over ``n_woofers`` woofers, stacked on the front face ``y = -d/2``."""
-    woofer, tweeter = w * _u(rng, 0.3, 0.42), w * _u(rng, 0.1, 0.16)
+    woofer, tweeter = w * uniform(rng, 0.3, 0.42), w * uniform(rng, 0.1, 0.16)
     z = z0 + h - h * 0.12 - tweeter
     spots = [(z, tweeter)]
     z -= tweeter + woofer * 1.15
@@ -99,103 +99,101 @@ def _front_drivers(
 def _box_speaker(rng: Rng) -> Parts:
     tower = rng.random() < 0.45
     if tower:
-        w, d, h = _u(rng, 0.18, 0.28), _u(rng, 0.25, 0.38), _u(rng, 0.85, 1.15)
+        w, d, h = uniform(rng, 0.18, 0.28), uniform(rng, 0.25, 0.38), uniform(rng, 0.85, 1.15)
     else:
-        w, d, h = _u(rng, 0.16, 0.3), _u(rng, 0.18, 0.32), _u(rng, 0.25, 0.45)
+        w, d, h = uniform(rng, 0.16, 0.3), uniform(rng, 0.18, 0.32), uniform(rng, 0.25, 0.45)
     parts: Parts = []
     z0 = 0.0
     if tower and rng.random() < 0.7:  # a plinth on four spikes
-        z0 = _u(rng, 0.04, 0.08)
-        pw, pd = w + _u(rng, 0.04, 0.1), d + _u(rng, 0.02, 0.06)
-        parts.append(_box((-pw / 2, -pd / 2, z0 - 0.025), (pw / 2, pd / 2, z0 + _EPS)))
+        z0 = uniform(rng, 0.04, 0.08)
+        pw, pd = w + uniform(rng, 0.04, 0.1), d + uniform(rng, 0.02, 0.06)
+        parts.append(box_between((-pw / 2, -pd / 2, z0 - 0.025), (pw / 2, pd / 2, z0 + OVERLAP_M)))
         for sx in (-1, 1):
             for sy in (-1, 1):
                 parts.append(
-                    _rod(
+                    rod(
                         (sx * pw / 2.4, sy * pd / 2.4, 0),
                         (sx * pw / 2.4, sy * pd / 2.4, z0 - 0.02),
                         0.012,
                         8,
                     )
                 )
-    slant = _u(rng, 0.0, 0.3) * d if rng.random() < 0.35 else 0.0
-    parts.append(_enclosure(w, d, h, 0.0, z0, slant, _u(rng, 0.0, 0.02)))
+    slant = uniform(rng, 0.0, 0.3) * d if rng.random() < 0.35 else 0.0
+    parts.append(_enclosure(w, d, h, 0.0, z0, slant, uniform(rng, 0.0, 0.02)))
     parts += _front_drivers(rng, w, d, z0, h, int(rng.integers(2, 4)) if tower else 1)
     return parts
 
 
 def _stand_speaker(rng: Rng) -> Parts:
-    w, d, h = _u(rng, 0.15, 0.26), _u(rng, 0.18, 0.3), _u(rng, 0.25, 0.4)
-    zs = _u(rng, 0.5, 0.8)  # top of the stand
+    w, d, h = uniform(rng, 0.15, 0.26), uniform(rng, 0.18, 0.3), uniform(rng, 0.25, 0.4)
+    zs = uniform(rng, 0.5, 0.8)  # top of the stand
     parts: Parts = [
-        _cbox((0, 0, 0.012), (w * _u(rng, 1.2, 1.6), d * _u(rng, 1.1, 1.4), 0.024)),
-        _cbox((0, 0, zs - 0.01), (w * 0.9, d * 0.9, 0.02)),
+        centred_box((0, 0, 0.012), (w * uniform(rng, 1.2, 1.6), d * uniform(rng, 1.1, 1.4), 0.024)),
+        centred_box((0, 0, zs - 0.01), (w * 0.9, d * 0.9, 0.02)),
     ]
-    posts = _pick(rng, {"one": 0.5, "two": 0.35, "frame": 0.15})
+    posts = pick_style(rng, {"one": 0.5, "two": 0.35, "frame": 0.15})
     if posts == "one":
-        parts.append(_rod((0, 0, 0.02), (0, 0, zs - 0.015), _u(rng, 0.02, 0.04), 12))
+        parts.append(rod((0, 0, 0.02), (0, 0, zs - 0.015), uniform(rng, 0.02, 0.04), 12))
     elif posts == "two":
         for sy in (-1, 1):
-            parts.append(_cbox((0, sy * d * 0.3, zs / 2), (0.04, 0.04, zs - 0.02)))
+            parts.append(centred_box((0, sy * d * 0.3, zs / 2), (0.04, 0.04, zs - 0.02)))
     else:  # a ladder frame: two side posts
         for sx in (-1, 1):
-            parts.append(_cbox((sx * w * 0.4, 0, zs / 2), (0.025, d * 0.5, zs - 0.02)))
-    parts.append(_enclosure(w, d, h, 0.0, zs - _EPS, 0.0, _u(rng, 0.0, 0.015)))
+            parts.append(centred_box((sx * w * 0.4, 0, zs / 2), (0.025, d * 0.5, zs - 0.02)))
+    parts.append(_enclosure(w, d, h, 0.0, zs - OVERLAP_M, 0.0, uniform(rng, 0.0, 0.015)))
     parts += _front_drivers(rng, w, d, zs, h, 1)
     return parts
 
 
 def _round_speaker(rng: Rng) -> Parts:
-    style = _pick(rng, {"cylinder": 0.3, "orb": 0.25, "column": 0.25, "horn": 0.2})
+    style = pick_style(rng, {"cylinder": 0.3, "orb": 0.25, "column": 0.25, "horn": 0.2})
     if style == "cylinder":  # a smart speaker: a can with a rounded or tapered top
-        r, h = _u(rng, 0.06, 0.1), _u(rng, 0.12, 0.35)
-        top_r = r * _u(rng, 0.55, 1.0)
+        r, h = uniform(rng, 0.06, 0.1), uniform(rng, 0.12, 0.35)
+        top_r = r * uniform(rng, 0.55, 1.0)
         return [
-            _lathe(
-                [(0, 0), (r * 0.9, 0), (r, 0.02), (r, h * 0.8), (top_r, h), (0, h)], sections=28
-            ),
-            _rod((0, 0, h - _EPS), (0, 0, h + 0.006), top_r * 0.7, 28),
+            lathe([(0, 0), (r * 0.9, 0), (r, 0.02), (r, h * 0.8), (top_r, h), (0, h)], sections=28),
+            rod((0, 0, h - OVERLAP_M), (0, 0, h + 0.006), top_r * 0.7, 28),
         ]
     if style == "orb":  # a ball on a short foot or a thin stalk
-        r = _u(rng, 0.08, 0.15)
-        stalk = _u(rng, 0.02, 0.04) if rng.random() < 0.55 else _u(rng, 0.12, 0.35)
+        r = uniform(rng, 0.08, 0.15)
+        stalk = uniform(rng, 0.02, 0.04) if rng.random() < 0.55 else uniform(rng, 0.12, 0.35)
         zc = stalk + r * 0.9
         parts = [
-            _rod((0, 0, 0), (0, 0, 0.02), r * _u(rng, 0.5, 0.9), 24),
-            _rod((0, 0, 0.01), (0, 0, zc), r * 0.15, 12),
-            _sphere((0, 0, zc), r, 3),
+            rod((0, 0, 0), (0, 0, 0.02), r * uniform(rng, 0.5, 0.9), 24),
+            rod((0, 0, 0.01), (0, 0, zc), r * 0.15, 12),
+            sphere((0, 0, zc), r, 3),
         ]
         return parts + _driver((0, -r * 0.85, zc), (0, -1, 0), r * 0.5)
     if style == "column":  # a tall omnidirectional column on a base disc
-        r, h = _u(rng, 0.05, 0.09), _u(rng, 0.6, 1.0)
-        base_r = r * _u(rng, 1.4, 2.2)
+        r, h = uniform(rng, 0.05, 0.09), uniform(rng, 0.6, 1.0)
+        base_r = r * uniform(rng, 1.4, 2.2)
         return [
-            _rod((0, 0, 0), (0, 0, 0.03), base_r, 28),
-            _lathe(
+            rod((0, 0, 0), (0, 0, 0.03), base_r, 28),
+            lathe(
                 [(0, 0), (r, 0), (r, h * 0.9), (r * 0.6, h), (0, h)],
-                (0, 0, 0.03 - _EPS),
+                (0, 0, 0.03 - OVERLAP_M),
                 sections=28,
             ),
         ]
     # horn: a flare opening forwards from a driver block, held up by a post
-    bw, bh = _u(rng, 0.12, 0.2), _u(rng, 0.1, 0.18)
-    L, mouth = _u(rng, 0.25, 0.45), _u(rng, 0.12, 0.22)
-    zc = mouth + _u(rng, 0.02, 0.1)
+    bw, bh = uniform(rng, 0.12, 0.2), uniform(rng, 0.1, 0.18)
+    L, mouth = uniform(rng, 0.25, 0.45), uniform(rng, 0.12, 0.22)
+    zc = mouth + uniform(rng, 0.02, 0.1)
     flare = [(0, 0), (0.03, 0), (0.035, L * 0.4), (mouth * 0.5, L * 0.8), (mouth, L), (0, L)]
     return [
-        _box((-bw / 2, 0, 0), (bw / 2, bw, zc + bh / 2)),
-        _lathe(flare, (0, 0.01, zc), (0, -1, 0), 24),
-        _cbox((0, -L * 0.45, 0.01), (0.05, L * 0.5, 0.02)),
-        _box((-0.015, -L * 0.45 - 0.015, 0.01), (0.015, -L * 0.45 + 0.015, zc)),
+        box_between((-bw / 2, 0, 0), (bw / 2, bw, zc + bh / 2)),
+        lathe(flare, (0, 0.01, zc), (0, -1, 0), 24),
+        centred_box((0, -L * 0.45, 0.01), (0.05, L * 0.5, 0.02)),
+        box_between((-0.015, -L * 0.45 - 0.015, 0.01), (0.015, -L * 0.45 + 0.015, zc)),
     ]
 
 
 def _wedge_speaker(rng: Rng) -> Parts:
     if rng.random() < 0.55:  # a stage monitor: lies on the floor, its sloped face up-front
-        w, depth = _u(rng, 0.4, 0.65), _u(rng, 0.3, 0.5)
-        h_front, h_back = _u(rng, 0.04, 0.1), _u(rng, 0.22, 0.38)
-        y_top = depth / 2 - _u(rng, 0.05, 0.15)
-        body = _hull(
+        w, depth = uniform(rng, 0.4, 0.65), uniform(rng, 0.3, 0.5)
+        h_front, h_back = uniform(rng, 0.04, 0.1), uniform(rng, 0.22, 0.38)
+        y_top = depth / 2 - uniform(rng, 0.05, 0.15)
+        body = hull_of(
             [
                 (sx * w / 2, y, z)
                 for sx in (-1, 1)
@@ -212,15 +210,15 @@ def _wedge_speaker(rng: Rng) -> Parts:
         b = np.array([0, y_top, h_back])
         n = np.array([0, -(b - a)[2], (b - a)[1]])  # out of the sloped face (-y, +z)
         parts = [body]
-        woofer = min(w, np.linalg.norm(b - a)) * _u(rng, 0.28, 0.38)
+        woofer = min(w, np.linalg.norm(b - a)) * uniform(rng, 0.28, 0.38)
         for f, r in ((0.45, woofer), (0.85, woofer * 0.35)):
             x = -w * 0.18 if f < 0.5 else w * 0.28
             parts += _driver(a + (b - a) * f + (x, 0, 0), n, r)
         return parts
     # a pyramid: the front leans back and the top is narrower and shallower
-    w, d, h = _u(rng, 0.2, 0.35), _u(rng, 0.22, 0.35), _u(rng, 0.3, 0.6)
-    tw, td = w * _u(rng, 0.45, 0.8), d * _u(rng, 0.35, 0.7)
-    body = _hull(
+    w, d, h = uniform(rng, 0.2, 0.35), uniform(rng, 0.22, 0.35), uniform(rng, 0.3, 0.6)
+    tw, td = w * uniform(rng, 0.45, 0.8), d * uniform(rng, 0.35, 0.7)
+    body = hull_of(
         [(sx * w / 2, sy * d / 2, 0) for sx in (-1, 1) for sy in (-1, 1)]
         + [(sx * tw / 2, d / 2 - td + (sy + 1) / 2 * td, h) for sx in (-1, 1) for sy in (-1, 1)]
     )
@@ -233,41 +231,41 @@ def _wedge_speaker(rng: Rng) -> Parts:
 
 
 def _system_speaker(rng: Rng) -> Parts:
-    tw, td, th = _u(rng, 0.1, 0.16), _u(rng, 0.1, 0.16), _u(rng, 0.55, 1.0)
-    s = _u(rng, 0.3, 0.45)  # the woofer cube's side
+    tw, td, th = uniform(rng, 0.1, 0.16), uniform(rng, 0.1, 0.16), uniform(rng, 0.55, 1.0)
+    s = uniform(rng, 0.3, 0.45)  # the woofer cube's side
     parts: Parts = []
     if rng.random() < 0.35:  # the tower stands on the woofer
-        parts.append(_enclosure(s, s, s * _u(rng, 0.9, 1.15), 0.0, 0.0))
+        parts.append(_enclosure(s, s, s * uniform(rng, 0.9, 1.15), 0.0, 0.0))
         z_top = parts[-1].bounds[1][2]
-        parts.append(_enclosure(tw, td, th * 0.6, 0.0, z_top - _EPS))
+        parts.append(_enclosure(tw, td, th * 0.6, 0.0, z_top - OVERLAP_M))
         parts += _front_drivers(rng, tw, td, z_top, th * 0.6, 1)
-        parts += _driver((0, -s / 2, z_top / 2), (0, -1, 0), s * _u(rng, 0.3, 0.4))
+        parts += _driver((0, -s / 2, z_top / 2), (0, -1, 0), s * uniform(rng, 0.3, 0.4))
         return parts
-    gap = _u(rng, 0.04, 0.2)
+    gap = uniform(rng, 0.04, 0.2)
     side = 1 if rng.random() < 0.5 else -1
     xt, xw = side * (gap + tw) / 2, -side * (gap + s) / 2
     depth = max(td, s)
     parts.append(
-        _box(
+        box_between(
             (min(xt - tw / 2, xw - s / 2) - 0.02, -depth / 2 - 0.02, 0),
             (max(xt + tw / 2, xw + s / 2) + 0.02, depth / 2 + 0.02, 0.025),
         )
     )
-    parts.append(_enclosure(tw, td, th, xt, 0.025 - _EPS))
+    parts.append(_enclosure(tw, td, th, xt, 0.025 - OVERLAP_M))
     parts += _front_drivers(rng, tw, td, 0.025, th, int(rng.integers(1, 4)), xt)
-    woofer_box = _enclosure(s, s, s * _u(rng, 0.9, 1.15), xw, 0.025 - _EPS)
+    woofer_box = _enclosure(s, s, s * uniform(rng, 0.9, 1.15), xw, 0.025 - OVERLAP_M)
     parts.append(woofer_box)
-    parts += _driver((xw, -s / 2, 0.025 + s / 2), (0, -1, 0), s * _u(rng, 0.3, 0.4))
+    parts += _driver((xw, -s / 2, 0.025 + s / 2), (0, -1, 0), s * uniform(rng, 0.3, 0.4))
     return parts
 
 
 def _bar_speaker(rng: Rng) -> Parts:
-    w, d, h = _u(rng, 0.8, 1.1), _u(rng, 0.08, 0.13), _u(rng, 0.06, 0.1)
-    parts: Parts = [_enclosure(w, d, h, 0.0, 0.0, 0.0, _u(rng, 0.0, 0.02))]
+    w, d, h = uniform(rng, 0.8, 1.1), uniform(rng, 0.08, 0.13), uniform(rng, 0.06, 0.1)
+    parts: Parts = [_enclosure(w, d, h, 0.0, 0.0, 0.0, uniform(rng, 0.0, 0.02))]
     n = int(rng.integers(2, 5))
     for k in range(n):
         x = -w / 2 + w * (k + 0.5) / n
-        parts.append(_rod((x, -d / 2 - 0.006, h / 2), (x, -d / 2 + 0.01, h / 2), h * 0.3, 20))
+        parts.append(rod((x, -d / 2 - 0.006, h / 2), (x, -d / 2 + 0.01, h / 2), h * 0.3, 20))
     return parts
 
 
@@ -282,4 +280,4 @@ _BUILD = {
 
 
 def _speaker(rng: Rng) -> Parts:
-    return _BUILD[_pick(rng, SPEAKER_KINDS)](rng)
+    return _BUILD[pick_style(rng, SPEAKER_KINDS)](rng)
