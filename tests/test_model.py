@@ -24,10 +24,9 @@ from e2vlib.model import (
     activation_bytes,
     build_e2v,
     count_parameters,
-    format_summary,
     parameter_breakdown,
-    summary,
 )
+from e2vlib.model.summary import format_layer_table, layer_table
 
 SMALL = (16, 32, 32)  # a quick input: stem -> 8x16x16, pool -> 4x8x8, ... -> 1x1x1
 
@@ -122,7 +121,7 @@ def test_paper_preset_within_two_percent_of_paper(paper_meta):
 
 def test_paper_shapes_on_meta(paper_meta):
     assert paper_meta.input_shape == (100, 256, 256)
-    rows = {r["name"]: r for r in summary(paper_meta, batch_size=2)}
+    rows = {r["name"]: r for r in layer_table(paper_meta, batch_size=2)}
     assert rows["encoder.stem"]["shape"] == (2, 64, 25, 64, 64)
     assert rows["encoder.layer4"]["shape"] == (2, 2048, 4, 8, 8)
     # 2048 * 4 * 8 * 8 = 524,288 = 16 * 32^3 -> C = 16
@@ -134,20 +133,20 @@ def test_paper_shapes_on_meta(paper_meta):
     assert y.shape == (2, 32, 32, 32) and y.device.type == "meta"
 
 
-def test_summary_counts_add_up_and_activations_scale_with_batch():
+def test_layer_table_counts_add_up_and_activations_scale_with_batch():
     model = build_e2v("tiny")
-    rows = summary(model)
+    rows = layer_table(model)
     assert sum(r["params"] for r in rows) == count_parameters(model)
     assert all(r["shape"] is not None for r in rows)
     assert [r["name"] for r in rows][:2] == ["encoder.stem", "encoder.layer1"]
-    assert "total" in format_summary(rows)
+    assert "total" in format_layer_table(rows)
     one, four = activation_bytes(model, 1), activation_bytes(model, 4)
     # The input alone (100*64*64 float32) is saved by the first conv.
     assert one > 100 * 64 * 64 * 4
     assert abs(four - 4 * one) < 0.01 * one  # linear in the batch (tiny per-call constants)
 
 
-def test_summary_matches_real_saved_tensors_on_cpu():
+def test_layer_table_matches_real_saved_tensors_on_cpu():
     model = small_model().eval()
     keys: dict[int, int] = {}
     weights = {p.data_ptr() for p in model.parameters()}
@@ -165,7 +164,7 @@ def test_summary_matches_real_saved_tensors_on_cpu():
 
 
 def test_hand_counted_tiny_encoder_stages():
-    rows = {r["name"]: r["params"] for r in summary(small_model())}
+    rows = {r["name"]: r["params"] for r in layer_table(small_model())}
     # stem: 3x3x3 conv 1 -> 8 (216) + BatchNorm (2 * 8)
     assert rows["encoder.stem"] == 27 * 8 + 16
     # layer1: one BasicBlock 8 -> 8: two 3x3x3 convs + two BatchNorms, identity shortcut
@@ -250,7 +249,6 @@ def test_public_names_come_from_the_submodules_and_paper_constants():
 
     from e2vlib.model import checkpoint, networks
 
-    # the function e2vlib.model.summary shadows the submodule's attribute on the package
     summary_module = importlib.import_module("e2vlib.model.summary")
 
     assert networks.E2V is build_e2v("tiny").__class__
@@ -258,27 +256,26 @@ def test_public_names_come_from_the_submodules_and_paper_constants():
                 Bridge, UNetDecoder):
         assert getattr(networks, cls.__name__) is cls
     assert checkpoint.load_checkpoint.__module__ == "e2vlib.model.checkpoint"
-    assert summary_module.summary is summary
+    assert summary_module.layer_table is layer_table
     # one definition of the paper's numbers
     assert PAPER_PARAMETERS == paper.N_PARAMETERS == 149_155_905
     assert VOXEL_RESOLUTION == paper.GRID_SIDE == 32
     assert PRESETS["paper"].input_shape == (paper.N_EVENT_FRAMES, paper.INPUT_SIZE_PX,
                                             paper.INPUT_SIZE_PX)
-    assert PRESETS["paper"].resnet_depth == paper.RESNET_DEPTH == 152
+    assert PRESETS["paper"].depth == paper.RESNET_DEPTH == 152
 
 
 def test_frame_axis_and_resnet_depth_are_told_apart():
     model = small_model(depth=18)
     assert model.input_shape == SMALL and model.n_frames == model.config.n_frames == SMALL[0]
-    assert model.config.resnet_depth == model.config.depth == 18
-    # resnet_depth is accepted wherever depth is
-    assert build_e2v("tiny", input_shape=SMALL, resnet_depth=34).config.depth == 34
+    assert model.config.depth == 18
+    # one name for the ResNet depth: no second spelling is read
+    with pytest.raises(ValueError, match="resnet_depth"):
+        build_e2v("tiny", input_shape=SMALL, resnet_depth=34)
     stored = PRESETS["tiny"].to_dict()
-    stored["resnet_depth"] = stored.pop("depth") + 8
-    config = E2VConfig.from_dict(stored)
-    assert config.depth == 18 and config.to_dict()["depth"] == 18
-    with pytest.raises(ValueError, match="give only one"):
-        build_e2v("tiny", depth=10, resnet_depth=18)
+    stored["resnet_depth"] = stored.pop("depth")
+    with pytest.raises(ValueError, match="resnet_depth"):
+        E2VConfig.from_dict(stored)
     with pytest.raises(ValueError, match="ResNet depth, not the frame axis"):
         build_e2v("tiny", depth=100)
     with pytest.raises(ValueError, match=r"\(batch, n_frames, height, width\)"):
@@ -478,9 +475,9 @@ def test_gru_encoder_is_the_gru_over_per_frame_features_in_time_order():
         assert not torch.allclose(enc(x.flip(2)), out, atol=1e-4)
 
 
-def test_summary_of_the_gru_model():
+def test_layer_table_of_the_gru_model():
     model = build_e2v("tiny_gru")
-    rows = {r["name"]: r for r in summary(model, batch_size=2)}
+    rows = {r["name"]: r for r in layer_table(model, batch_size=2)}
     assert rows["encoder.cnn"]["shape"] == (2 * 100, 64, 2, 2)  # every frame of both
     assert rows["encoder.gru"]["shape"] == (2, 100, 256)
     assert rows["bridge"]["shape"] == (2, 4, 32, 32, 32)

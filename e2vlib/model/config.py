@@ -59,7 +59,7 @@ class E2VConfig:
       units whose final hidden state goes to the bridge); the last two are the paper's
       suggested future work.
     - ``depth``: the **ResNet depth** (number of layers: 10, 18, 34, 50, 101 or 152), not
-      the frame axis; also readable as :attr:`resnet_depth`. ``block``: ``"basic"``,
+      the frame axis. ``block``: ``"basic"``,
       ``"bottleneck"`` or ``"auto"`` (the standard block for that ResNet depth).
     - ``base_width``: channels of the stem and first stage (64 in ResNet); stage ``i`` has
       ``base_width * 2**i`` (times 4 at the output of a bottleneck block).
@@ -91,7 +91,7 @@ class E2VConfig:
       are equal exactly when they build the same network.
 
     The field is called ``depth`` because checkpoints store it under that key; old
-    checkpoints keep loading. :meth:`from_dict` also accepts ``resnet_depth``. Fields added
+    checkpoints keep loading. Fields added
     later (``in_channels``, ``gru_hidden``, ``gru_pool``, ``bridge_norm``) take their
     defaults when a stored config lacks them, so older checkpoints load as one-channel
     models with the bridge they were trained with.
@@ -99,7 +99,7 @@ class E2VConfig:
     Examples
     --------
     >>> config = E2VConfig(input_shape=(20, 32, 32), depth=18)
-    >>> config.resnet_depth, config.n_frames, config.block_type
+    >>> config.depth, config.n_frames, config.block_type
     (18, 20, 'basic')
     >>> E2VConfig.from_dict(config.to_dict()) == config
     True
@@ -176,11 +176,6 @@ class E2VConfig:
             raise ValueError("invalid E2V config: " + "; ".join(problems))
 
     @property
-    def resnet_depth(self) -> int:
-        """The ResNet depth (number of layers), the same as :attr:`depth`."""
-        return self.depth
-
-    @property
     def n_frames(self) -> int:
         """Length of the frame axis (time) of the input, ``input_shape[0]``."""
         return self.input_shape[0]
@@ -206,11 +201,7 @@ class E2VConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> E2VConfig:
-        """Rebuild a config from :meth:`to_dict`'s output; unknown keys raise ValueError.
-
-        ``resnet_depth`` is accepted as another name for ``depth``.
-        """
-        d = _resnet_depth_alias(dict(d), "E2V config")
+        """Rebuild a config from :meth:`to_dict`'s output; unknown keys raise ValueError."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:
@@ -225,16 +216,6 @@ _GRU_FIELDS = ("gru_hidden", "gru_pool")
 def _check_choice(problems: list[str], name: str, value: object, choices: tuple) -> None:
     if value not in choices:
         problems.append(f"{name} must be one of {list(choices)}, got {value!r}")
-
-
-def _resnet_depth_alias(d: dict[str, Any], what: str) -> dict[str, Any]:
-    """Rename a ``resnet_depth`` key to the stored field name ``depth``."""
-    if "resnet_depth" in d:
-        if "depth" in d and d["depth"] != d["resnet_depth"]:
-            raise ValueError(f"{what}: depth={d['depth']} and resnet_depth={d['resnet_depth']} "
-                             "name the same field; give only one")
-        d["depth"] = d.pop("resnet_depth")
-    return d
 
 
 PRESETS: dict[str, E2VConfig] = {

@@ -20,7 +20,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from e2vlib.model.config import GRID_SIDE, PRESETS, E2VConfig
-from e2vlib.model.encoders import _conv, _norm
+from e2vlib.model.encoders import conv_layer, norm_layer
 
 # --------------------------------------------------------------------------- bridge
 
@@ -61,8 +61,8 @@ class Bridge(nn.Module):
         elif self.kind == "interp":
             self.channels = config.hidden_channels
             self.project = nn.Sequential(
-                _conv(3, encoder_shape[0], self.channels, 1),
-                _norm(config.norm, self.channels),
+                conv_layer(3, encoder_shape[0], self.channels, 1),
+                norm_layer(config.norm, self.channels),
                 nn.ReLU(inplace=True),
             )
         else:  # "fc"
@@ -71,7 +71,7 @@ class Bridge(nn.Module):
             layers = [nn.Flatten(), nn.Dropout(config.dropout),
                       nn.Linear(n_in, self.channels * self.seed_size**3)]
             if config.bridge_norm:  # normalise the seed volume, then the ReLU
-                self.seed_norm = nn.Sequential(_norm(config.norm, self.channels),
+                self.seed_norm = nn.Sequential(norm_layer(config.norm, self.channels),
                                                nn.ReLU(inplace=True))
             else:  # the layout older checkpoints store
                 layers.append(nn.ReLU(inplace=True))
@@ -124,8 +124,8 @@ class UNetDecoder(nn.Module):
         self.down = nn.ModuleList(
             nn.Sequential(
                 nn.MaxPool3d(2),
-                _conv(3, widths[i], widths[i + 1], 3),
-                _norm(config.norm, widths[i + 1]),
+                conv_layer(3, widths[i], widths[i + 1], 3),
+                norm_layer(config.norm, widths[i + 1]),
                 nn.LeakyReLU(0.2, inplace=True),
             )
             for i in range(len(widths) - 1)
@@ -144,8 +144,8 @@ class UNetDecoder(nn.Module):
             )
         elif config.bottleneck == "conv":
             self.bottleneck = nn.Sequential(
-                _conv(3, widths[-1], widths[-1], 3),
-                _norm(config.norm, widths[-1]),
+                conv_layer(3, widths[-1], widths[-1], 3),
+                norm_layer(config.norm, widths[-1]),
                 nn.ReLU(inplace=True),
             )
         else:
@@ -153,7 +153,7 @@ class UNetDecoder(nn.Module):
         self.up = nn.ModuleList(
             nn.Sequential(
                 nn.ConvTranspose3d(widths[i + 1], widths[i], 4, stride=2, padding=1, bias=False),
-                _norm(config.norm, widths[i]),
+                norm_layer(config.norm, widths[i]),
                 nn.ReLU(inplace=True),
             )
             for i in reversed(range(len(widths) - 1))

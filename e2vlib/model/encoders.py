@@ -12,7 +12,7 @@
 
 Every encoder maps ``(B, C, n_frames, H, W)`` to ``(B, c, t, h, w)`` (its
 ``output_shape`` gives ``(c, t, h, w)`` without running it), the input of
-:class:`~e2vlib.model.decoder.Bridge`. The private helpers ``_conv`` and ``_norm`` (a
+:class:`~e2vlib.model.decoder.Bridge`. The helpers ``conv_layer`` and ``norm_layer`` (a
 convolution without bias, the normalization after it) are shared with
 :mod:`e2vlib.model.decoder`.
 
@@ -32,14 +32,14 @@ from e2vlib.model.config import RESNET_LAYERS, E2VConfig
 # --------------------------------------------------------------------------- building blocks
 
 
-def _norm(kind: str, channels: int, dim: int = 3) -> nn.Module:
+def norm_layer(kind: str, channels: int, dim: int = 3) -> nn.Module:
     if kind == "group":
         # Up to 8 groups; gcd keeps the group count a divisor of the channel count.
         return nn.GroupNorm(math.gcd(channels, 8), channels)
     return nn.BatchNorm3d(channels) if dim == 3 else nn.BatchNorm2d(channels)
 
 
-def _conv(dim: int, c_in: int, c_out: int, kernel: int, stride: int = 1) -> nn.Module:
+def conv_layer(dim: int, c_in: int, c_out: int, kernel: int, stride: int = 1) -> nn.Module:
     # No bias: a normalization layer always follows and would cancel it.
     conv = nn.Conv3d if dim == 3 else nn.Conv2d
     return conv(c_in, c_out, kernel, stride=stride, padding=kernel // 2, bias=False)
@@ -73,8 +73,8 @@ class BasicBlock(nn.Module):
     def __init__(self, c_in: int, width: int, stride: int, norm: str, dim: int = 3) -> None:
         super().__init__()
         c_out = width * self.expansion
-        self.conv1, self.bn1 = _conv(dim, c_in, width, 3, stride), _norm(norm, width, dim)
-        self.conv2, self.bn2 = _conv(dim, width, c_out, 3), _norm(norm, c_out, dim)
+        self.conv1, self.bn1 = conv_layer(dim, c_in, width, 3, stride), norm_layer(norm, width, dim)
+        self.conv2, self.bn2 = conv_layer(dim, width, c_out, 3), norm_layer(norm, c_out, dim)
         self.shortcut = _shortcut(c_in, c_out, stride, norm, dim)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -100,10 +100,11 @@ class Bottleneck(nn.Module):
     def __init__(self, c_in: int, width: int, stride: int, norm: str, dim: int = 3) -> None:
         super().__init__()
         c_out = width * self.expansion
-        self.conv1, self.bn1 = _conv(dim, c_in, width, 1), _norm(norm, width, dim)
+        self.conv1, self.bn1 = conv_layer(dim, c_in, width, 1), norm_layer(norm, width, dim)
         # Stride on the 3x3 conv (as torchvision's ResNet v1.5); the counts are the same.
-        self.conv2, self.bn2 = _conv(dim, width, width, 3, stride), _norm(norm, width, dim)
-        self.conv3, self.bn3 = _conv(dim, width, c_out, 1), _norm(norm, c_out, dim)
+        self.conv2 = conv_layer(dim, width, width, 3, stride)
+        self.bn2 = norm_layer(norm, width, dim)
+        self.conv3, self.bn3 = conv_layer(dim, width, c_out, 1), norm_layer(norm, c_out, dim)
         self.shortcut = _shortcut(c_in, c_out, stride, norm, dim)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -117,7 +118,7 @@ def _shortcut(c_in: int, c_out: int, stride: int, norm: str, dim: int) -> nn.Mod
     # ResNet "option B": a projection only where the shape changes, identity elsewhere.
     if stride == 1 and c_in == c_out:
         return nn.Identity()
-    return nn.Sequential(_conv(dim, c_in, c_out, 1, stride), _norm(norm, c_out, dim))
+    return nn.Sequential(conv_layer(dim, c_in, c_out, 1, stride), norm_layer(norm, c_out, dim))
 
 
 class ResNetEncoder(nn.Module):
@@ -150,8 +151,8 @@ class ResNetEncoder(nn.Module):
         n_blocks = RESNET_LAYERS[config.depth][1]
         w = config.base_width
         stem: list[nn.Module] = [
-            _conv(dim, config.in_channels, w, config.stem_kernel, config.stem_stride),
-            _norm(config.norm, w, dim),
+            conv_layer(dim, config.in_channels, w, config.stem_kernel, config.stem_stride),
+            norm_layer(config.norm, w, dim),
             nn.ReLU(inplace=True),
         ]
         if config.stem_pool:

@@ -26,7 +26,7 @@ per pixel and time step (``in_channels = C > 1``, e.g. the OFF and ON counts of 
 with only its first convolution widened to ``C`` input channels; ``E2V.sample_shape`` is
 ``(C, D, H, W)`` then (``(D, H, W)`` for one channel). Two different "depths" appear
 here and must not be confused: the frame axis (time, ``n_frames`` long) and the ResNet
-depth (number of layers, :attr:`E2VConfig.depth`, alias :attr:`E2VConfig.resnet_depth`).
+depth (number of layers, :attr:`E2VConfig.depth`).
 
 The paper gives the encoder, the hidden-volume idea, the decoder style and the total of
 :data:`e2vlib.paper.N_PARAMETERS` parameters, but not the decoder's widths; every choice
@@ -65,7 +65,6 @@ from e2vlib.model.config import (
     RESNET_LAYERS,
     VOXEL_RESOLUTION,
     E2VConfig,
-    _resnet_depth_alias,
 )
 from e2vlib.model.decoder import Bridge, UNetDecoder
 from e2vlib.model.encoders import (
@@ -107,7 +106,7 @@ class E2V(nn.Module):
 
     Build with :func:`build_e2v` or ``E2V(E2VConfig(...))``. ``input_shape`` is the
     ``(D, H, W)`` = ``(n_frames, height, width)`` every input must have (``D`` is the frame
-    axis, time; the ResNet depth is ``config.resnet_depth``); ``config`` the
+    axis, time; the ResNet depth is ``config.depth``); ``config`` the
     :class:`E2VConfig` it was built from. With ``in_channels = C > 1`` inputs are
     ``(B, C, n_frames, H, W)``; ``sample_shape`` is the shape of one sample either way.
     Sub-modules: ``encoder``, ``bridge``, ``decoder``, ``head`` (1x1x1 conv to one logit
@@ -233,8 +232,7 @@ def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -
         touching the global random state.
     **overrides
         Any :class:`E2VConfig` field, e.g. ``input_shape=(20, 64, 64)`` (``(n_frames,
-        height, width)``) or ``in_channels=2`` (inputs ``(B, 2, n_frames, H, W)``);
-        ``resnet_depth=`` is accepted for ``depth=``.
+        height, width)``) or ``in_channels=2`` (inputs ``(B, 2, n_frames, H, W)``).
 
     Returns
     -------
@@ -248,8 +246,8 @@ def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -
     (100, 64, 64)
     >>> count_parameters(model)
     2827829
-    >>> small = build_e2v("tiny", input_shape=(20, 32, 32), resnet_depth=18)
-    >>> small.config.resnet_depth, small(torch.zeros(2, 20, 32, 32)).shape
+    >>> small = build_e2v("tiny", input_shape=(20, 32, 32), depth=18)
+    >>> small.config.depth, small(torch.zeros(2, 20, 32, 32)).shape
     (18, torch.Size([2, 32, 32, 32]))
     >>> gru = build_e2v("tiny_gru", input_shape=(20, 32, 32), seed=0)
     >>> gru.encoder_shape, gru(torch.zeros(2, 20, 32, 32)).shape
@@ -259,7 +257,6 @@ def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -
     """
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; choose one of {sorted(PRESETS)}")
-    overrides = _resnet_depth_alias(dict(overrides), "build_e2v")
     valid = {f.name for f in fields(E2VConfig)}
     unknown = sorted(set(overrides) - valid)
     if unknown:
