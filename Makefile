@@ -1,11 +1,12 @@
-# e2v notebooks: `make lab` opens the lessons, `make test` runs every test and notebook.
+# e2v notebooks: `make lab` opens the lessons, `make test` checks the install in minutes (every
+# lesson runs once), `make test-all` adds the slow tier (what CI runs).
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static
 
-.PHONY: venv lab test unit notebooks browser book book-check lint format bench data figures strip student clean
+.PHONY: venv lab test test-all unit notebooks imports browser book book-check lint format bench data figures strip student clean
 
 venv: $(STAMP)
 
@@ -20,14 +21,28 @@ $(STAMP): environment/requirements.txt pyproject.toml
 lab: $(STAMP)
 	$(VENV)/bin/jupyter lab notebooks/
 
-test: $(STAMP) lint
-	$(QUICK_ENV) $(PY) -m pytest --doctest-modules e2vlib tests notebooks --nbmake --nbmake-timeout=600 --durations=25
+# `make test`: ruff, the import contracts, the doctests, the unit tests and every lesson executed
+# once in quick mode (tests/test_lessons.py: each exercise's check must fail on the student stub
+# and on a wrong answer in that same run), with few Hypothesis examples. Tests marked `slow`
+# (end-to-end training and CLI runs, long studies) wait for `make test-all`, which also draws
+# the full Hypothesis example counts.
+PYTEST := $(QUICK_ENV) $(PY) -m pytest
+
+test: $(STAMP) lint imports
+	HYPOTHESIS_PROFILE=quick $(PYTEST) --doctest-modules e2vlib tests -m "not slow" --durations=25
+
+test-all: $(STAMP) lint imports
+	HYPOTHESIS_PROFILE=full $(PYTEST) --doctest-modules e2vlib tests --durations=25
 
 unit: $(STAMP)
-	$(QUICK_ENV) $(PY) -m pytest --doctest-modules e2vlib tests
+	HYPOTHESIS_PROFILE=quick $(PYTEST) --doctest-modules e2vlib tests -m "not slow" \
+	  --ignore=tests/test_lessons.py
 
 notebooks: $(STAMP)
-	$(QUICK_ENV) $(PY) -m pytest notebooks --nbmake --nbmake-timeout=600 --durations=0
+	$(PYTEST) tests/test_lessons.py --durations=0
+
+imports: $(STAMP)
+	$(VENV)/bin/lint-imports
 
 # Lessons 00 and 08 in a real JupyterLab, driven by headless Chromium (Debian's chromium at
 # /usr/bin/chromium) through Playwright: every cell runs without error, the 3D views draw, the

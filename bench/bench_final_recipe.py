@@ -4,7 +4,7 @@
    (``experiments/results/capstone.json``): training minutes per run (30 epochs, validation
    included) and the CPU they ran on.
 2. One training step of the final recipe's model (preset ``tiny_norm``, BCE + Dice, batch 16,
-   data_small's frames) with each of ``fit``'s speed options, and the 30-epoch time each
+   data_small's frames) with each of ``fit_at_scale``'s speed options, and the 30-epoch time each
    would give, scaled from the recorded fp32 runs by the step-time ratio.
 3. A ``torch.profiler`` profile of the fp32 step: each kind of operator's share of the CPU
    time, and the operators that take the most.
@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_training import SPEED_OPTIONS, training_rate, training_step  # noqa: E402
 from common import machine, spread, write_section  # noqa: E402
 
-from e2vlib.train import bf16_is_fast  # noqa: E402
+from e2vlib.scale.training import bf16_is_fast  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = "bce_dice_30_epochs"
@@ -95,9 +95,9 @@ def main() -> str:
              f"--configs {CONFIG}`, on {', '.join(cpus)}): **{minutes.mean():.1f} min** of "
              f"training per run ({minutes.min():.1f}-{minutes.max():.1f}), validation "
              f"included; target at most {TARGET_MINUTES} min in fp32.", "",
-             "One training step of its model with each of `fit`'s speed options:", "",
-             "| option (`fit(...)`) | step (batch 16) | gain | 30 epochs, scaled from the "
-             "recorded runs |", "| --- | --- | --- | --- |"]
+             "One training step of its model with each of `fit_at_scale`'s speed options:",
+             "", "| option (`fit_at_scale(...)`) | step (batch 16) | gain | 30 epochs, scaled "
+             "from the recorded runs |", "| --- | --- | --- | --- |"]
     base = None
     for name, options in SPEED_OPTIONS.items():
         if options.get("precision") == "bf16" and not bf16_is_fast("cpu"):

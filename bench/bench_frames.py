@@ -1,10 +1,11 @@
-"""Frame accumulation: e2vlib.frames.accumulate against tonic's ToFrame, mode by mode.
+"""Frame accumulation: e2vlib's accumulators against tonic's ToFrame, mode by mode.
 
 10 million random events on a 256 x 256 sensor over [0, 500000) us, 100 windows of
 5 ms (the paper's setting). For each mode (binary, count, polarity) it times tonic's
-nearest equivalent, our numpy reference (``backend="numpy"``) and our default (the numba
-kernel where numba is installed), with fixed windows and with the paper's Eq. 5 groups
-(``windows="paper"``), plus the first call's compile time. Run:
+nearest equivalent, the numpy version the lessons read (``e2vlib.frames.accumulate``) and
+the compiled one (``e2vlib.scale.frames_numba.accumulate_fast``, where numba is installed),
+with fixed windows and with the paper's Eq. 5 groups (``windows="paper"``), plus the
+first call's compile time. Run:
 `python bench/bench_frames.py` (tonic needed: `pip install -r
 environment/bench-requirements.txt`). Writes the "Frame accumulation" section of
 bench/RESULTS.md.
@@ -24,26 +25,32 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import machine, spread, timeit, write_section  # noqa: E402
 
-from e2vlib import frames  # noqa: E402
 from e2vlib.events import make_events  # noqa: E402
 from e2vlib.frames import accumulate  # noqa: E402
+
+try:
+    from e2vlib.scale import frames_numba
+except ImportError:  # numba is not installed: only the numpy rows
+    frames_numba = None
 
 N_EVENTS, SIZE, DT, N_FRAMES = 10_000_000, 256, 5000, 100
 MODES = ("binary", "count", "polarity")
 ROOT = Path(__file__).resolve().parent.parent
 
-# a fresh interpreter's first accumulate call: import, compile (or load the cache), run
+# a fresh interpreter's first call: import, compile (or load the cache), run
 FIRST_CALL = """
 import time
 start = time.perf_counter()
 from e2vlib.events import make_events
-from e2vlib.frames import accumulate
+from {module} import {name} as accumulate
 ev = make_events([0, 1], [0, 0], [0, 7], [1, -1])
 for windows in ("fixed", "paper"):
     for mode in ("binary", "count", "polarity"):
         accumulate(ev, (2, 1), dt_us=5, mode=mode, windows=windows)
 print(time.perf_counter() - start)
 """
+FAST = {"module": "e2vlib.scale.frames_numba", "name": "accumulate_fast"}
+PLAIN = {"module": "e2vlib.frames", "name": "accumulate"}
 
 
 def make_stream(seed: int = 0) -> np.ndarray:
@@ -58,14 +65,13 @@ ONE_THREAD = "numba, 1 thread"
 
 @contextlib.contextmanager
 def one_thread():
-    """The numba backend without its threaded parts: one loop over the whole stream."""
-    kernels = frames._fast_kernels()
-    saved = kernels.THREADED_MIN_EVENTS
-    kernels.THREADED_MIN_EVENTS = 2**62
+    """accumulate_fast without its threaded parts: one loop over the whole stream."""
+    saved = frames_numba.THREADED_MIN_EVENTS
+    frames_numba.THREADED_MIN_EVENTS = 2**62
     try:
         yield
     finally:
-        kernels.THREADED_MIN_EVENTS = saved
+        frames_numba.THREADED_MIN_EVENTS = saved
 
 
 def read_bandwidth(nbytes: int) -> float:
@@ -77,18 +83,18 @@ def read_bandwidth(nbytes: int) -> float:
 def first_call_seconds() -> dict[str, float]:
     """Wall seconds of a new interpreter's first calls (all modes, both window kinds).
 
-    ``"compile"`` with an empty numba cache (what the first lesson on a machine pays),
-    ``"cached"`` run again with that cache, ``"numpy"`` with numba hidden (the fallback).
+    ``"compile"``: ``accumulate_fast`` with an empty numba cache (what its first call on a
+    machine pays), ``"cached"`` run again with that cache, ``"numpy"``: ``accumulate``.
     """
     result = {}
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
         for name in ("compile", "cached"):
-            out = subprocess.run([sys.executable, "-c", FIRST_CALL], env=env, cwd=ROOT,
+            out = subprocess.run([sys.executable, "-c", FIRST_CALL.format(**FAST)], env=env,
+                                 cwd=ROOT,
                                  capture_output=True, text=True, check=True)
             result[name] = float(out.stdout.split()[-1])
-    hide = "import sys; sys.modules['numba'] = None\n"  # `import numba` raises ImportError
-    out = subprocess.run([sys.executable, "-c", hide + FIRST_CALL], cwd=ROOT,
+    out = subprocess.run([sys.executable, "-c", FIRST_CALL.format(**PLAIN)], cwd=ROOT,
                          capture_output=True, text=True, check=True)
     result["numpy"] = float(out.stdout.split()[-1])
     return result
@@ -123,31 +129,38 @@ def tonic_runs(events: np.ndarray, repeat: int) -> tuple[dict, int]:
 
 def main(repeat: int = 5) -> str:
     events = make_stream()
-    fast = frames._fast_kernels() is not None
+    fast = frames_numba is not None
     backend = "numba" if fast else "numpy"
+    calls = {"numpy": accumulate}
+    if fast:
+        calls["numba"] = frames_numba.accumulate_fast
     ours = {}
     for mode in MODES:
         for windows in ("fixed", "paper"):
-            for name in dict.fromkeys(("numpy", backend)):
+            for name, call in calls.items():
                 ours[mode, windows, name] = timeit(
-                    lambda m=mode, w=windows, b=name: accumulate(
-                        events, (SIZE, SIZE), DT, 0, N_FRAMES, m, w, backend=b),
-                    repeat=repeat)
+                    lambda m=mode, w=windows, c=call: c(
+                        events, (SIZE, SIZE), DT, 0, N_FRAMES, m, w), repeat=repeat)
             if fast:  # the same kernel in one thread (the parts are counted in threads)
                 with one_thread():
                     ours[mode, windows, ONE_THREAD] = timeit(
-                        lambda m=mode, w=windows: accumulate(
-                            events, (SIZE, SIZE), DT, 0, N_FRAMES, m, w, backend="numba"),
-                        repeat=repeat)
+                        lambda m=mode, w=windows: frames_numba.accumulate_fast(
+                            events, (SIZE, SIZE), DT, 0, N_FRAMES, m, w), repeat=repeat)
     try:
         tonic, dropped = tonic_runs(events, repeat)
     except ImportError:
         tonic, dropped = {}, None
     bandwidth = read_bandwidth(events.nbytes)
-    cores = frames._fast_kernels()._cores() if fast else 1
+    cores = frames_numba._cores() if fast else 1
     no_tonic = ("" if tonic else " tonic is not installed here (`pip install -r "
                 "environment/bench-requirements.txt`), so no row compares with it.")
-    first = first_call_seconds()
+    first = first_call_seconds() if fast else None
+    first_text = ("numba is not installed here: no compiled rows." if first is None else
+                  "First call in a new interpreter (import, then all three modes and both "
+                  "window kinds on two\nevents): `accumulate_fast` "
+                  f"{first['compile']:.1f} s with an empty numba cache (numba compiles the "
+                  f"kernels once\nper machine), {first['cached']:.1f} s once they are cached; "
+                  f"`accumulate` {first['numpy']:.1f} s.")
     groups = len(accumulate(events, (SIZE, SIZE), DT, 0, None, "binary", "paper"))
 
     def row(label: str, result: dict, mode: str) -> str:
@@ -175,10 +188,11 @@ as `accumulate` with fixed windows (checked for every mode): its two-channel fra
 thresholded `> 0` (inside the timing; tonic has no binary mode) our `binary` mode. tonic has
 no Eq. 5 grouping, so `paper` rows are compared with tonic's fixed windows of the same mode
 (Eq. 5 cuts this stream into {groups} groups of at most 5001 us; the first {N_FRAMES} are
-kept). Bold: the default backend (`numba` where numba is installed; a stream this long is cut
-at window or group starts into one part per core, {cores} here, counted at once in threads);
-"numba, 1 thread" is the same loop over the whole stream in one thread, like tonic and numpy;
-`numpy` is the plain reference (`backend="numpy"`), identical frames.{no_tonic}
+kept). `numpy` is `e2vlib.frames.accumulate`, the version the lessons read; bold: `numba`,
+`e2vlib.scale.frames_numba.accumulate_fast` (opt-in, identical frames; a stream this long is
+cut at window or group starts into one part per core, {cores} here, counted at once in
+threads); "numba, 1 thread" is the same loop over the whole stream in one thread, like tonic
+and numpy.{no_tonic}
 The event array is {events.nbytes / 1e6:.0f} MB (13 bytes per event); a plain read (one
 thread) of that many bytes runs at {bandwidth / 1e9:.1f} GB/s here, so "of memory roof" is
 (event bytes / time) / that bandwidth: 100% would mean the events are read once at full
@@ -188,10 +202,7 @@ speed and nothing else costs time.
 | --- | --- | --- | --- | --- |
 {chr(10).join(rows)}
 
-First call in a new interpreter (import, then all three modes and both window kinds on two
-events): {first['compile']:.1f} s with an empty numba cache (numba compiles the kernels once
-per machine), {first['cached']:.1f} s once they are cached, {first['numpy']:.1f} s with numba
-absent (the numpy fallback).
+{first_text}
 
 tonic's default `ToFrame(time_window=...)` (include_incomplete=False) drops the last, partial
 window: here it lost {dropped if dropped is not None else 'n/a'} events; `accumulate` keeps

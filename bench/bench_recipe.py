@@ -20,21 +20,25 @@ from common import machine, write_section  # noqa: E402
 
 from e2vlib.data import E2VDataset  # noqa: E402
 from e2vlib.model import build_e2v, load_checkpoint  # noqa: E402
-from e2vlib.train import RECIPES, bf16_is_fast, evaluate, fit  # noqa: E402
+from e2vlib.scale.training import bf16_is_fast, fit_at_scale  # noqa: E402
+from e2vlib.train import RECIPES, evaluate, fit  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[1] / "data_small"
 
 
 FAST_OPTIONS = [{"precision": "bf16"}, {"channels_last": True}]
-"""``fit``'s speed options, each timed over the whole recipe against the default run (bf16
-only where the CPU has native bfloat16, :func:`e2vlib.train.bf16_is_fast`)."""
+"""``fit_at_scale``'s speed options, each timed over the whole recipe against the default run
+(bf16 only where the CPU has native bfloat16, :func:`e2vlib.scale.training.bf16_is_fast`)."""
 
 
 def train_once(train, val, test, **options) -> tuple[list[dict], float, dict]:
-    """History, wall minutes and test results of the tiny recipe from seed 0."""
+    """History, wall minutes and test results of the tiny recipe from seed 0 (plain ``fit``
+    without ``options``, else ``fit_at_scale`` with them)."""
+    train_fn = fit_at_scale if options else fit
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
-        history = fit(build_e2v("tiny", seed=0), train, val, out, progress=False, **options)
+        history = train_fn(build_e2v("tiny", seed=0), train, val, out, progress=False,
+                           **options)
         minutes = (time.perf_counter() - start) / 60
         result = evaluate(load_checkpoint(Path(out) / "best.pt"), test, train_data=train,
                           fscore_points=2048, progress=False)
@@ -53,10 +57,10 @@ def fast_line(train, val, test, minutes: float, ours: float, options: dict) -> s
     """The same recipe with ``options``, against the default run."""
     shown = ", ".join(f"{k}={v!r}" for k, v in options.items())
     if options.get("precision") == "bf16" and not bf16_is_fast("cpu"):
-        return f"- `fit(..., {shown})`: skipped, this CPU has no native bfloat16."
+        return f"- `fit_at_scale(..., {shown})`: skipped, this CPU has no native bfloat16."
     _, fast_minutes, result = train_once(train, val, test, **options)
     fast = result["overall"]["iou@0.3"]
-    return (f"- **with `fit(..., {shown})`** (CLI: `train {cli_flags(options)}`): "
+    return (f"- **with `fit_at_scale(..., {shown})`** (CLI: `train {cli_flags(options)}`): "
             f"**{fast_minutes:.1f} min**, {minutes / fast_minutes:.2f}x faster; test IoU@0.3 "
             f"{fast:.3f} ({fast - ours:+.3f} against fp32; one seed each, and 12-epoch runs of "
             f"one config spread by a standard deviation of 0.02-0.04 across seeds).")

@@ -25,7 +25,8 @@ from common import machine, spread, timeit, write_section  # noqa: E402
 from e2vlib.data import E2VDataset  # noqa: E402
 from e2vlib.inputs import preload
 from e2vlib.model import build_e2v, load_checkpoint, read_checkpoint  # noqa: E402
-from e2vlib.train import bf16_is_fast, evaluate, to_channels_last  # noqa: E402
+from e2vlib.scale.training import bf16_is_fast, to_channels_last  # noqa: E402
+from e2vlib.train import evaluate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data_small"
@@ -53,13 +54,13 @@ SPEED_OPTIONS = {
     "bf16 autocast": {"precision": "bf16"},
     "bf16 + channels-last": {"precision": "bf16", "channels_last": True},
 }
-"""``fit`` options whose training step is timed (``fit(..., **options)``)."""
+"""``fit_at_scale`` options whose training step is timed (``fit_at_scale(..., **options)``)."""
 
 
 def training_step(batch: int = 16, precision: str = "fp32", channels_last: bool = False,
                   compiled: bool = False, preset: str = "tiny", loss: str = "bce"):
     """One training step of ``preset`` with ``loss`` on a batch of data_small's real frames,
-    as ``fit`` runs it, as a function of no arguments."""
+    as ``fit_at_scale`` runs it, as a function of no arguments."""
     from e2vlib.losses import make_loss
 
     data = preload(E2VDataset(DATA, "train"))
@@ -91,7 +92,7 @@ def training_rate(batch: int = 16, steps: int = 6, **options) -> dict:
 def speed_table(threads: int, **model) -> list[str]:
     """Markdown rows: each training option's step time and gain over fp32 (``model``:
     ``preset`` and ``loss`` of :func:`training_rate`)."""
-    rows = ["| option (`fit(...)`) | step (batch 16) | samples/s | gain |",
+    rows = ["| option (`fit_at_scale(...)`) | step (batch 16) | samples/s | gain |",
             "| --- | --- | --- | --- |"]
     base = None
     for name, options in SPEED_OPTIONS.items():
@@ -128,7 +129,7 @@ def main() -> str:
              f"torch threads {threads}.", ""]
     lines.append(f"- **tiny training step** (batch 16, 100 x 64 x 64, AdamW): "
                  f"{spread(rate)} per step = **{16 / rate['median']:.0f} samples/s**.")
-    lines += ["", "Faster CPU training: the same step with each of `fit`'s speed options.",
+    lines += ["", "Faster CPU training: the same step with each of `fit_at_scale`'s speed options.",
               "", *speed_table(threads), "",
               "`torch.compile` is not among them: compiling the tiny model's training step "
               "had not finished after 25 minutes on these 2 cores (measured while other jobs "

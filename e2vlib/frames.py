@@ -4,31 +4,27 @@ All functions take an event array of :data:`e2vlib.events.EVENT_DTYPE` (sorted b
 microseconds) and ``sensor_size = (width, height)``, validate them, and never modify the
 caller's array. Frames are indexed ``[k, y, x]``; with fixed windows (the default) frame
 ``k`` covers the half-open window ``[t0 + k*dt, t0 + (k+1)*dt)``; ``windows="paper"``
-groups events as the paper's Eq. 5 does (see :func:`accumulate`). :func:`accumulate` runs
-a compiled kernel (:mod:`e2vlib.scale.frames_numba`, numba) where numba is installed; its numpy
-reference, here, gives the same frames (``backend="numpy"``).
+groups events as the paper's Eq. 5 does (see :func:`accumulate`). :func:`accumulate` is
+plain numpy, written to be read; ``e2vlib.scale.frames_numba.accumulate_fast`` gives the
+same frames from a compiled kernel, for long streams.
 
 Introduced in notebooks/02_event_frames.ipynb.
 """
 
 from __future__ import annotations
 
-import functools
-import os
-
 import numpy as np
 
 from e2vlib import paper
-from e2vlib.events import (
-    INT64_MAX,
-    INT64_MIN,
-    EventError,
-    check_sensor_size,
-    iter_checked_chunks,
-    validate,
-)
+from e2vlib.events import INT64_MAX, INT64_MIN, EventError, check_sensor_size, validate
 
 MODES = ("binary", "count", "polarity")
+WINDOWS = ("fixed", "paper")
+"""How :func:`accumulate` cuts time: fixed clock windows, or the paper's Eq. 5 groups."""
+
+MAX_FRAMES_BYTES: int = 8 * 2**30
+"""Largest frame stack :func:`accumulate` makes (8 GiB); larger requests raise EventError
+before anything is allocated (``accumulate_fast`` also keeps within half the free memory)."""
 
 
 def window_count(t_first_us: int, t_last_us: int, dt_us: int, t0_us: int) -> int:
@@ -42,59 +38,63 @@ def window_count(t_first_us: int, t_last_us: int, dt_us: int, t0_us: int) -> int
     return int((t_last_us - t0_us) // dt_us) + 1
 
 
-def searchsorted_left(t: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """``np.searchsorted(t, values, side="left")`` without copying a strided ``t``.
-
-    ``events["t"]`` is a strided view into the structured array; ``np.searchsorted`` would
-    first copy all of it. A vectorized bisection touches only ~log2(N) entries per value.
-    """
-    values = np.asarray(values, dtype=np.int64)
-    lo = np.zeros(values.shape, dtype=np.intp)
-    hi = np.full(values.shape, len(t), dtype=np.intp)
-    while np.any(lo < hi):
-        mid = (lo + hi) // 2
-        active = lo < hi
-        below = np.zeros(values.shape, dtype=bool)
-        below[active] = t[mid[active]] < values[active]
-        lo = np.where(active & below, mid + 1, lo)
-        hi = np.where(active & ~below, mid, hi)
-    return lo
+def _whole(value, low: int, high: int) -> bool:
+    """Whether ``value`` is a whole number in ``[low, high]`` (False for NaN, text, ...)."""
+    try:
+        return bool(np.isfinite(value)) and int(value) == value and low <= int(value) <= high
+    except (TypeError, ValueError, OverflowError):
+        return False
 
 
 def _check_dt(dt_us) -> int:
     """``dt_us`` as a positive whole number of microseconds, or a clear EventError."""
-    try:
-        ok = bool(np.isfinite(dt_us)) and int(dt_us) == dt_us and dt_us > 0
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
+    if not _whole(dt_us, 1, 2**64 - 1):
         raise EventError(
-            f"dt_us must be a positive whole number of microseconds, got {dt_us!r} "
+            f"dt_us must be a positive whole number of microseconds below 2^64, got {dt_us!r} "
             f"(the paper's 5 ms is dt_us={paper.DT_US})")
     return int(dt_us)
 
 
 def _check_n_frames(n_frames) -> int:
-    try:
-        ok = bool(np.isfinite(n_frames)) and int(n_frames) == n_frames and n_frames >= 0
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
+    if not _whole(n_frames, 0, INT64_MAX):
         raise EventError(f"n_frames must be a non-negative integer, got {n_frames!r}")
     return int(n_frames)
 
 
-def _resolve_windows(
-    events: np.ndarray, dt_us: int, t0_us: int | None, n_frames: int | None
-) -> tuple[int, int, int]:
-    """Return ``(dt, t0, n)`` of fixed windows: defaults filled in, types and ranges checked."""
-    dt_us = _check_dt(dt_us)
-    t = events["t"]
+def check_frame_arguments(events: np.ndarray, dt_us, t0_us, n_frames, mode: str,
+                          windows: str) -> tuple[int, int, int | None]:
+    """The settings of :func:`accumulate` checked: ``(dt, t0, n_frames)`` as ints.
+
+    ``t0`` defaults to the first event's time (0 without events); ``n_frames`` stays None
+    when not given. Raises ValueError for an unknown ``mode`` or ``windows`` and EventError
+    for a bad number, naming it. ``events`` must have the event dtype (they are not read
+    beyond their first time). Shared with ``e2vlib.scale.frames_numba.accumulate_fast``.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    if windows not in WINDOWS:
+        raise ValueError(f"windows must be one of {WINDOWS}, got {windows!r}")
+    dt = _check_dt(dt_us)
     if t0_us is None:
-        t0_us = int(t[0]) if len(t) else 0
-    if n_frames is None:
-        n_frames = window_count(int(t[0]), int(t[-1]), dt_us, int(t0_us)) if len(t) else 0
-    return dt_us, int(t0_us), _check_n_frames(n_frames)
+        t0_us = int(events["t"][0]) if len(events) else 0
+    if not _whole(t0_us, INT64_MIN, INT64_MAX):
+        raise EventError(f"t0_us must be a whole number of microseconds in the int64 range "
+                         f"(like the event times), got {t0_us!r}")
+    return dt, int(t0_us), None if n_frames is None else _check_n_frames(n_frames)
+
+
+def check_stack_size(n_frames: int, frame_values: int, mode: str, t: np.ndarray,
+                     limit: int | None = None, why: str = "frames.MAX_FRAMES_BYTES") -> None:
+    """Refuse a stack of ``n_frames`` x ``frame_values`` over ``limit`` bytes (default
+    :data:`MAX_FRAMES_BYTES`) with an EventError that gives the sizes and event times ``t``."""
+    limit = MAX_FRAMES_BYTES if limit is None else limit
+    wanted = n_frames * frame_values * (1 if mode == "binary" else 4)
+    if wanted > limit:
+        first, last = (int(t[0]), int(t[-1])) if len(t) else (0, 0)
+        raise EventError(
+            f"{n_frames} frames of {frame_values} values would take {wanted / 2**30:.2f} GiB "
+            f"(limit {limit / 2**30:.2f} GiB: {why}); check sensor_size, dt_us and t0_us "
+            f"against the event times ({first}..{last} us) or pass n_frames")
 
 
 def paper_group_bounds(t: np.ndarray, dt_us: int, start: int = 0,
@@ -115,108 +115,13 @@ def paper_group_bounds(t: np.ndarray, dt_us: int, start: int = 0,
     >>> paper_group_bounds(t, dt_us=5, n_groups=2).tolist()
     [0, 3, 4]
     """
+    t = np.ascontiguousarray(t)  # events["t"] is a strided view: copy it once, not per search
     bounds = [int(start)]
     limit = np.inf if n_groups is None else int(n_groups)
     while bounds[-1] < len(t) and len(bounds) - 1 < limit:
-        group_start = int(t[bounds[-1]])
-        # first event with t > t_j + dt, i.e. t >= t_j + dt + 1 (integer microseconds)
-        bounds.append(_first_at_least(t, bounds[-1], group_start + dt_us + 1))
+        group_end = min(int(t[bounds[-1]]) + int(dt_us), INT64_MAX)  # the last time it takes
+        bounds.append(int(np.searchsorted(t, group_end, side="right")))
     return np.asarray(bounds, dtype=np.int64)
-
-
-def _first_at_least(t: np.ndarray, start: int, value: int) -> int:
-    """First index ``>= start`` with ``t[index] >= value`` (``t`` sorted).
-
-    Searches blocks growing from ``start`` (a group rarely spans many events), so each call
-    copies only about as many times as the group holds, not the whole strided column.
-    """
-    size = 1024
-    while start < len(t):
-        block = np.asarray(t[start:start + size])
-        if block[-1] >= value:
-            return start + int(np.searchsorted(block, value, side="left"))
-        start += len(block)
-        size *= 4
-    return len(t)
-
-
-def _window_offsets(t: np.ndarray, t0: int, dt: int, frame_elements: int) -> np.ndarray | int:
-    """``((t - t0) // dt) * frame_elements`` for sorted ``t``, without a division per event.
-
-    A block of sorted events spans few windows (usually one), so the window index is a
-    constant, or a few runs of constants found by binary search on the window edges.
-    """
-    k_first, k_last = (int(t[0]) - t0) // dt, (int(t[-1]) - t0) // dt
-    if k_first == k_last:
-        return k_first * frame_elements
-    cuts = np.searchsorted(t, t0 + dt * np.arange(k_first + 1, k_last + 1, dtype=np.int64))
-    run_lengths = np.diff(cuts, prepend=0, append=len(t))
-    return np.repeat(np.arange(k_first, k_last + 1) * frame_elements, run_lengths)
-
-
-def _group_offsets(bounds: np.ndarray, lo: int, hi: int, frame_elements: int) -> np.ndarray | int:
-    """``group(i) * frame_elements`` for event indices ``lo <= i < hi`` given group ``bounds``."""
-    g_first = int(np.searchsorted(bounds, lo, side="right")) - 1
-    g_last = int(np.searchsorted(bounds, hi - 1, side="right")) - 1
-    if g_first == g_last:
-        return g_first * frame_elements
-    edges = np.clip(bounds[g_first:g_last + 2], lo, hi)
-    return np.repeat(np.arange(g_first, g_last + 1) * frame_elements, np.diff(edges))
-
-
-MAX_FRAMES_BYTES: int = 8 * 2**30
-"""Largest frame stack :func:`accumulate` allocates (8 GiB, and at most half the memory
-available, :func:`frames_memory_limit`); larger requests raise EventError."""
-
-
-BINCOUNT_MAX_VALUES: int = 2**25
-"""Largest count stack (values) the numpy path of :func:`accumulate` counts with
-``np.bincount``, whose int64 result takes twice the int32 stack (256 MiB here); larger
-stacks count each touched value once, so the path holds no more than the stack the memory
-limit allowed plus memory per event."""
-
-
-def available_memory() -> int | None:
-    """Bytes of memory available to new allocations now (Linux ``MemAvailable``, else the
-    free physical pages), or None where neither can be read."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, OSError, ValueError):
-        return None
-
-
-def frames_memory_limit() -> tuple[int, str]:
-    """``(bytes, why)``: the largest frame stack :func:`accumulate` makes here, the smaller
-    of :data:`MAX_FRAMES_BYTES` and half the memory available now. :func:`accumulate`
-    asks only for stacks over 256 MiB; smaller ones are always made."""
-    available = available_memory()
-    if available is not None and available // 2 < MAX_FRAMES_BYTES:
-        return available // 2, (f"half the {available / 2**30:.1f} GiB of memory available "
-                                "now")
-    return MAX_FRAMES_BYTES, "frames.MAX_FRAMES_BYTES"
-
-WINDOWS = ("fixed", "paper")
-BACKENDS = ("auto", "numba", "numpy")
-
-
-@functools.cache
-def _fast_kernels():
-    """The compiled kernels (:mod:`e2vlib.scale.frames_numba`), or None where numba is missing.
-
-    Imported on the first fast call, not with this module: importing numba takes a while.
-    """
-    try:
-        from e2vlib.scale import frames_numba as frames_fast
-    except ImportError:
-        return None
-    return frames_fast
 
 
 def accumulate(
@@ -227,7 +132,6 @@ def accumulate(
     n_frames: int | None = None,
     mode: str = "binary",
     windows: str = paper.FRAME_WINDOWS,
-    backend: str = "auto",
 ) -> np.ndarray:
     """Accumulate events into a stack of frames, one per time window of ``dt_us``.
 
@@ -247,15 +151,8 @@ def accumulate(
 
     ``t0_us`` defaults to the first event's time (events before it are left out);
     ``n_frames`` to as many windows or groups as cover the last event. Events outside the
-    windows are left out. The frame stack may not exceed :func:`frames_memory_limit`.
-
-    Backends give identical frames: ``"numpy"`` is the plain reference written out below
-    (vectorized blocks and one ``np.bincount``; read it to see how frames are made);
-    ``"numba"`` runs the compiled single pass of :mod:`e2vlib.scale.frames_numba`, about twice as
-    fast for counts (bench/RESULTS.md; the first call on a machine compiles it, a few
-    seconds, then it is cached on disk), and counts streams of a million events or more
-    in one part per core, at the same time;
-    ``"auto"`` (default) is numba where it is installed, numpy otherwise.
+    windows are left out. Stacks over :data:`MAX_FRAMES_BYTES` are refused. For long
+    streams, ``e2vlib.scale.frames_numba.accumulate_fast`` gives the same frames faster.
     Introduced in notebooks/02_event_frames.ipynb.
 
     Examples
@@ -266,126 +163,45 @@ def accumulate(
     [[1, 1], [0, 1], [1, 0]]
     >>> accumulate(ev, (2, 1), dt_us=5, mode="count", windows="paper")[:, 0].tolist()
     [[1, 1], [1, 1]]
-    >>> accumulate(ev, (2, 1), dt_us=5, mode="count", backend="numpy")[:, 0].tolist()
-    [[1, 1], [0, 1], [1, 0]]
     """
     width, height = check_sensor_size(sensor_size)
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-    if windows not in WINDOWS:
-        raise ValueError(f"windows must be one of {WINDOWS}, got {windows!r}")
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    if not isinstance(events, np.ndarray) or events.ndim != 1:
-        validate(events, (width, height))  # raises a named EventError for wrong shapes/dtypes
-    validate(events[:0], (width, height))  # the dtype, before reading any field
-    kernels = None if backend == "numpy" else _fast_kernels()
-    if backend == "numba" and kernels is None:
-        raise ModuleNotFoundError(
-            "accumulate(backend='numba') needs numba: pip install -r "
-            "environment/requirements.txt, or pass backend='numpy'")
-    channels = 2 if mode == "polarity" else 1
-    if len(events) == 0:  # nothing to read; still check dtype and arguments
-        validate(events, (width, height))
+    validate(events, (width, height))
+    dt, t0, n_frames = check_frame_arguments(events, dt_us, t0_us, n_frames, mode, windows)
     t = events["t"]
-    bounds = None
+    first = int(np.searchsorted(t, t0))  # t is sorted: events before t0 are left out
+
+    # 1. The frame each event from t0 on falls in.
     if windows == "fixed":
-        dt, t0, n = _resolve_windows(events, dt_us, t0_us, n_frames)
+        # frame k holds t0 + k dt <= t < t0 + (k + 1) dt. t - t0 >= 0 is read as uint64,
+        # which keeps it exact even for times more than 2^63 us (292,000 years) apart.
+        frame = (t[first:] - t0).view(np.uint64) // np.uint64(dt)
+        n = int(frame[-1]) + 1 if len(frame) else 0  # up to the window of the last event
     else:
-        dt = _check_dt(dt_us)
-        t0 = int(t[0]) if t0_us is None and len(t) else int(t0_us or 0)
-        n_wanted = None if n_frames is None else _check_n_frames(n_frames)
-    # the kernels do int64 arithmetic: times past that range (never met in practice) take
-    # the reference path, which works with Python integers
-    if kernels is not None and not (INT64_MIN <= t0 <= INT64_MAX and dt <= INT64_MAX):
-        kernels = None
-    if windows == "paper":
-        if kernels is not None:
-            counted = kernels.count_groups(t, t0, dt) if len(t) else 0
-            n = counted if n_wanted is None else n_wanted
-        else:
-            first = int(searchsorted_left(t, [t0])[0])
-            bounds = paper_group_bounds(t, dt, start=first, n_groups=n_wanted)
-            n = len(bounds) - 1 if n_wanted is None else n_wanted
-    frame_elements = channels * height * width
-    itemsize = 1 if mode == "binary" else 4
-    wanted = n * frame_elements * itemsize
-    limit, why = frames_memory_limit() if wanted > 2**28 else (wanted, "")  # 256 MiB: fine
-    if wanted > limit:
-        raise EventError(
-            f"{n} frames of {frame_elements} values would take "
-            f"{wanted / 2**30:.2f} GiB (limit "
-            f"{limit / 2**30:.2f} GiB: {why}); check sensor_size, dt_us and "
-            f"t0_us against the event times ({int(t[0]) if len(t) else 0}.."
-            f"{int(t[-1]) if len(t) else 0} us) or pass n_frames")
+        # Eq. 5: a group starts at its first event t_j and takes events while t - t_j <= dt
+        bounds = paper_group_bounds(t, dt, start=first, n_groups=n_frames)
+        frame = np.repeat(np.arange(len(bounds) - 1), np.diff(bounds))
+        n = len(bounds) - 1
+    if n_frames is not None:
+        n = n_frames  # later frames are dropped, missing ones stay empty
+    kept = int(np.searchsorted(frame, n))  # frames rise with time: those before n lead
+    inside, frame = events[first:first + kept], frame[:kept]
+
+    # 2. One index per event into the flat stack (n, channels, H, W).
+    channels = 2 if mode == "polarity" else 1
+    check_stack_size(n, channels * height * width, mode, t)
+    channel = (inside["p"] > 0) if mode == "polarity" else 0  # 0 = OFF, 1 = ON
+    flat = ((frame * channels + channel) * height + inside["y"]) * width + inside["x"]
+
+    # 3. A 1 where a pixel fired (Eq. 4), or how many events it got.
+    stack = np.zeros(n * channels * height * width,
+                     dtype=np.uint8 if mode == "binary" else np.int32)
+    if mode == "binary":
+        stack[flat] = 1
+    else:
+        index, count = np.unique(flat, return_counts=True)
+        stack[index] = count
     shape = (n, 2, height, width) if mode == "polarity" else (n, height, width)
-    if kernels is not None and len(events) == 0:  # checked above; no kernel for no events
-        return np.zeros(shape, dtype=np.uint8 if mode == "binary" else np.int32)
-    if kernels is not None:
-        binary = mode == "binary"
-        out = np.zeros(n * frame_elements, dtype=np.uint8 if binary else np.int32)
-        scratch = np.zeros(frame_elements, dtype=np.uint8 if binary else np.uint16)
-        touched = np.empty(max(height * width // 16, 1), dtype=np.int64)
-        if not kernels.fill(events["x"], events["y"], t, events["p"], out, scratch, touched,
-                            width, height, t0, dt, n, windows == "paper", binary,
-                            mode == "polarity"):
-            validate(events, (width, height))  # raises the detailed EventError
-            raise AssertionError("the numba kernel rejected events that validate() accepts")
-        return out.reshape(shape)
-    return _accumulate_numpy(events, (width, height), t0, dt, n, mode, bounds).reshape(shape)
-
-
-def _accumulate_numpy(events: np.ndarray, sensor_size: tuple[int, int], t0: int, dt: int,
-                      n: int, mode: str, bounds: np.ndarray | None) -> np.ndarray:
-    """The numpy reference of :func:`accumulate`: flat frames ``(n * C * H * W,)``.
-
-    Fixed windows of ``dt`` us from ``t0`` when ``bounds`` is None, else the Eq. 5 groups
-    given by their event-index ``bounds`` (from :func:`paper_group_bounds`).
-    """
-    width, height = sensor_size
-    plane = height * width
-    frame_elements = (2 if mode == "polarity" else 1) * plane
-    t = events["t"]
-    # Sorted times: the events inside the windows are one contiguous slice [lo, hi).
-    if bounds is None:
-        end = t0 + n * dt  # may pass the int64 range: then every event is before it
-        lo, hi = searchsorted_left(t, [t0, min(end, INT64_MAX)])
-        hi = len(t) if end > INT64_MAX else hi
-    else:
-        lo, hi = int(bounds[0]), int(bounds[-1])
-
-    # One pass over the events, block by block (see e2vlib.events.iter_checked_chunks):
-    # each block is checked, then turned into flat indices k*C*H*W + c*H*W + y*W + x
-    # while it is still in the CPU cache. Binary frames are set directly; counts collect
-    # the indices for a single np.bincount at the end (np.add.at would be ~20x slower).
-    binary = np.zeros(n * frame_elements, dtype=np.uint8) if mode == "binary" else None
-    indices = None if mode == "binary" else np.empty(hi - lo, dtype=np.intp)
-    for start, block in iter_checked_chunks(events, (width, height)):
-        a, b = max(lo - start, 0), min(hi - start, len(block))
-        if a >= b:
-            continue
-        block = block[a:b]
-        flat = block["y"].astype(np.intp)
-        flat *= width
-        if bounds is None:
-            flat += _window_offsets(block["t"], t0, dt, frame_elements)
-        else:
-            flat += _group_offsets(bounds, start + a, start + b, frame_elements)
-        flat += block["x"]
-        if mode == "polarity":
-            flat += (block["p"] > 0) * plane
-        if binary is not None:
-            binary[flat] = 1
-        else:
-            indices[start + a - lo:start + b - lo] = flat
-    if binary is not None:
-        return binary
-    if n * frame_elements <= BINCOUNT_MAX_VALUES:
-        return np.bincount(indices, minlength=n * frame_elements).astype(np.int32)
-    counts = np.zeros(n * frame_elements, dtype=np.int32)  # the stack the limit allowed
-    touched, times = np.unique(indices, return_counts=True)
-    counts[touched] = times
-    return counts
+    return stack.reshape(shape)
 
 
 def time_surface(
@@ -453,7 +269,7 @@ def time_surface_stack(
     if not (np.isfinite(tau) and tau > 0):
         raise ValueError(f"tau_us must be a positive number of microseconds, got {tau_us}")
     t = events["t"]
-    edges = searchsorted_left(t, int(t0_us) + dt * np.arange(n + 1, dtype=np.int64))
+    edges = np.searchsorted(t, int(t0_us) + dt * np.arange(n + 1, dtype=np.int64))
     t_last = np.full(height * width, np.iinfo(np.int64).min // 4, dtype=np.int64)
     out = np.empty((n, height * width), dtype=np.float32)
     for k in range(n):
@@ -534,10 +350,20 @@ def downsample(frames: np.ndarray, factor: int, reduce: str = "auto") -> np.ndar
 
     ``reduce="max"`` keeps a pixel that fired in any of its block (binary frames: the
     paper scales 512 -> 256 this way); ``"sum"`` adds counts, so the number of events is
-    kept. ``"auto"`` uses max for bool/uint8 frames (what ``mode="binary"`` returns) and
-    sum for anything else. H and W must be divisible by ``factor``.
+    kept (integer counts widen to int64, floats stay floats). ``"auto"`` uses max for
+    bool/uint8 frames (what ``mode="binary"`` returns) and sum for anything else. H and W
+    must be divisible by ``factor``. scikit-image's ``block_reduce`` does the pooling.
     Introduced in notebooks/02_event_frames.ipynb.
+
+    Examples
+    --------
+    >>> downsample(np.eye(4, dtype=np.uint8)[None], 2)[0].tolist()
+    [[1, 0], [0, 1]]
+    >>> downsample(np.eye(4, dtype=np.int32)[None], 2)[0].tolist()
+    [[2, 0], [0, 2]]
     """
+    from skimage.measure import block_reduce
+
     frames = np.asarray(frames)
     if frames.ndim < 2:
         raise ValueError(f"frames must have at least 2 dimensions (..., H, W), got {frames.shape}")
@@ -553,7 +379,5 @@ def downsample(frames: np.ndarray, factor: int, reduce: str = "auto") -> np.ndar
         reduce = "max" if frames.dtype in (np.bool_, np.uint8) else "sum"
     if reduce not in ("max", "sum"):
         raise ValueError(f"reduce must be 'auto', 'max' or 'sum', got {reduce!r}")
-    blocks = frames.reshape(*frames.shape[:-2], height // factor, factor, width // factor, factor)
-    if reduce == "max":
-        return blocks.max(axis=(-3, -1))
-    return blocks.sum(axis=(-3, -1))  # integer counts widen to int64, floats stay floats
+    block = (1,) * (frames.ndim - 2) + (factor, factor)
+    return block_reduce(frames, block, np.max if reduce == "max" else np.sum)

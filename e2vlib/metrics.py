@@ -303,7 +303,7 @@ def category_means(values, categories) -> dict[str, float]:
     return {str(c): float(values[cats == c].mean()) for c in dict.fromkeys(cats)}
 
 
-def summarize(scores, categories) -> dict:
+def score_table(scores, categories) -> dict:
     """Per-sample scores -> the layout of :func:`e2vlib.train.evaluate`'s result.
 
     ``scores`` maps a metric name to per-sample values ``(N,)`` (for example the output of
@@ -315,7 +315,7 @@ def summarize(scores, categories) -> dict:
 
     Examples
     --------
-    >>> table = summarize({"iou@0.3": [0.25, 0.75, 1.0]}, ["chair", "chair", "lamp"])
+    >>> table = score_table({"iou@0.3": [0.25, 0.75, 1.0]}, ["chair", "chair", "lamp"])
     >>> table["overall"], table["per_category"]["chair"]
     ({'iou@0.3': 0.6666666666666666}, {'iou@0.3': 0.5, 'n': 2})
     """
@@ -355,7 +355,7 @@ def score_predictions(probabilities, voxels, fscore_points: int = 8192) -> dict[
 
 
 def score_split(probabilities, voxels, categories, fscore_points: int = 8192) -> dict:
-    """Score predictions of a whole split: :func:`summarize` of :func:`score_predictions`,
+    """Score predictions of a whole split: :func:`score_table` of :func:`score_predictions`,
     plus ``"scores"`` (the per-sample arrays). What :func:`e2vlib.train.evaluate`, the
     experiment runner and the geometry study report.
 
@@ -370,17 +370,17 @@ def score_split(probabilities, voxels, categories, fscore_points: int = 8192) ->
     (0.667, (3,))
     """
     scores = score_predictions(probabilities, voxels, fscore_points)
-    return {**summarize(scores, categories), "scores": scores}
+    return {**score_table(scores, categories), "scores": scores}
 
 
 def format_table(result: dict, categories=None, keys=METRIC_KEYS) -> str:
-    """The per-category table of a :func:`summarize` / :func:`score_split` result (or
+    """The per-category table of a :func:`score_table` / :func:`score_split` result (or
     :func:`e2vlib.train.evaluate`'s, with its baselines) in the layout of the paper's
     Tables I and II, as text; ``categories`` default to the paper's order.
 
     Examples
     --------
-    >>> result = summarize({"iou@0.3": [0.25, 0.75]}, ["chair", "chair"])
+    >>> result = score_table({"iou@0.3": [0.25, 0.75]}, ["chair", "chair"])
     >>> print(format_table(result, keys=("iou@0.3",)))
     category        n    iou@0.3
     ----------------------------

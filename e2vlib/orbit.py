@@ -27,7 +27,7 @@ Conventions (lengths in metres, angles in degrees, times in microseconds):
 Names: the orbit (:func:`orbit_cameras`, :func:`orbit_angles`, :func:`rendered_cameras`,
 :func:`orbit_camera_at`), the clock (:func:`n_rendered`, :func:`rendered_times_us`,
 :func:`nearest_frames`, :func:`window_frame_indices`, :func:`window_cameras`), the camera
-(:data:`VIEW_ANGLE_DEG`, :func:`project_points`) and the oversampling rule
+(:data:`VIEW_ANGLE_DEG`, :func:`camera_axes`, :func:`project_points`) and the oversampling rule
 (:func:`pixel_motion_per_frame`, :func:`required_oversample`).
 
 Introduced in notebooks/03_simulating_events.ipynb.
@@ -315,6 +315,29 @@ def orbit_camera_at(t_us: ArrayLike, n_video_frames: int = paper.N_VIDEO_FRAMES,
 # --- the camera and the oversampling rule --------------------------------------------------
 
 
+def camera_axes(camera_position: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit axes ``(forward, right, up)`` of the render camera at ``camera_position`` (m).
+
+    The camera looks at the origin (``forward``), keeps +z up in the image: ``right`` is
+    ``forward x z`` and ``up`` is ``right x forward``. The renderer aims its camera with
+    these axes; :func:`project_points` and ``e2vlib.viz.camera_frustum`` use them too.
+
+    Examples
+    --------
+    >>> forward, right, up = camera_axes([0.0, -4.0, 0.0])  # on the -y side, level
+    >>> (forward + 0.0).tolist(), (right + 0.0).tolist(), (up + 0.0).tolist()
+    ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    """
+    position = np.asarray(camera_position, dtype=np.float64).reshape(3)
+    forward = -position / np.linalg.norm(position)
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    norm = np.linalg.norm(right)
+    if not norm >= 1e-9:  # also NaN
+        raise ValueError("camera_position must not lie on the z axis (up direction is +z)")
+    right /= norm
+    return forward, right, np.cross(right, forward)
+
+
 def project_points(points: ArrayLike, camera_position: ArrayLike, resolution: int) -> np.ndarray:
     """Pixel coordinates ``(m, 2)`` as ``(column, row)`` of 3-D ``points`` (m, shape (m, 3)).
 
@@ -337,13 +360,7 @@ def project_points(points: ArrayLike, camera_position: ArrayLike, resolution: in
     res = _check_count("resolution", resolution, 1)
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     cam = np.asarray(camera_position, dtype=np.float64).reshape(3)
-    forward = -cam / np.linalg.norm(cam)
-    right = np.cross(forward, (0.0, 0.0, 1.0))
-    norm = np.linalg.norm(right)
-    if norm < 1e-9:
-        raise ValueError("camera_position must not lie on the z axis (up direction is +z)")
-    right /= norm
-    up = np.cross(right, forward)
+    forward, right, up = camera_axes(cam)
     rel = pts - cam
     depth = rel @ forward
     if np.any(depth <= 0):

@@ -36,7 +36,8 @@ import torch
 from e2vlib import experiments
 from e2vlib.files import atomic_path
 from e2vlib.model import build_e2v
-from e2vlib.train import fit, init_output_prior
+from e2vlib.scale.training import fit_at_scale
+from e2vlib.train import init_output_prior
 
 
 def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
@@ -103,9 +104,9 @@ def probe(study: str, config: str, seed: int, epochs: int, recipe: str | None,
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         try:
-            fit(model, train, val, tmp, recipe=protocol.recipe,
-                epochs=protocol.run_epochs, seed=seed, loss=protocol.loss,
-                progress=False, on_step=on_step, on_epoch=on_epoch, **overrides)
+            fit_at_scale(model, train, val, tmp, recipe=protocol.recipe,
+                         epochs=protocol.run_epochs, seed=seed, loss=protocol.loss,
+                         progress=False, on_step=on_step, on_epoch=on_epoch, **overrides)
         except _Enough:
             pass
     from dataclasses import asdict

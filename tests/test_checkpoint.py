@@ -17,7 +17,6 @@ from e2vlib.model import (
     build_e2v,
     check_frames_match,
     checkpoint_data_config,
-    frame_settings,
     load_checkpoint,
     read_checkpoint,
     save_checkpoint,
@@ -248,11 +247,15 @@ def test_save_checkpoint_stores_the_data_config(tmp_path):
         save_checkpoint(tmp_path / "bad.pt", small_model(), data_config=[1, 2])
 
 
-def test_frame_settings_fill_in_what_older_configs_left_out():
-    assert frame_settings({"frame_size": 64}) == {
-        "n_frames": paper.N_EVENT_FRAMES, "dt_us": paper.DT_US, "windows": "fixed",
-        "frame_size": 64}
-    assert frame_settings(DATA_CONFIG)["n_frames"] == 16
+def test_check_frames_match_refuses_a_malformed_data_config_naming_its_source():
+    # "20" is not 20: the strings a hand-edited config may hold are refused, not compared
+    with pytest.raises(ValueError, match=r"^the data config of tiny.pt: n_frames must be a "
+                                         r"whole number >= 1, got '20' \(str\)"):
+        check_frames_match({"n_frames": "20"}, {"n_frames": 20}, "tiny.pt", "data_small")
+    with pytest.raises(ValueError, match=r"^the data config of data_small: dt_us .* got None"):
+        check_frames_match({"dt_us": 5000}, {"dt_us": None}, "tiny.pt", "data_small")
+    # a frame size of None is unknown, so it is not compared
+    assert check_frames_match({"frame_size": None}, {"frame_size": 64}) is None
 
 
 def test_check_frames_match_names_both_values_and_both_sources():

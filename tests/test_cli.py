@@ -77,6 +77,7 @@ def test_evaluate_writes_the_json_layout(trained, capsys):
     assert "overall" in capsys.readouterr().out  # the printed table
 
 
+@pytest.mark.slow  # two reconstructions end to end (mesh, then an events file)
 def test_reconstruct_from_mesh_and_events(trained):
     root, _, out = trained
     mesh_path = root / "box.stl"
@@ -193,6 +194,7 @@ def test_debug_shows_the_traceback_before_or_after_the_subcommand(capsys):
             main(argv)
 
 
+@pytest.mark.slow  # two real `python -m e2vlib` processes
 def test_debug_in_a_real_process_prints_the_traceback(tmp_path):
     cmd = [sys.executable, "-m", "e2vlib", *TRAIN, "--recipe", "bogus"]
     plain = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path,
@@ -494,9 +496,10 @@ def test_the_choices_are_the_librarys_own_tuples():
     from e2vlib.frames import WINDOWS
     from e2vlib.losses import LOSSES
     from e2vlib.model import PRESETS
+    from e2vlib.noise import NOISE_LEVELS
     from e2vlib.render import ANTI_ALIASING
-    from e2vlib.simulate import NOISE_LEVELS
-    from e2vlib.train import PRECISIONS, RECIPES
+    from e2vlib.scale.training import PRECISIONS
+    from e2vlib.train import RECIPES
 
     commands = next(a for a in build_parser()._actions if a.dest == "command").choices
 

@@ -265,3 +265,25 @@ def test_run_jobs_names_the_failing_job(workers):
                  names=["sample chair_0001", "sample chair_0002"])
     with pytest.raises(ValueError, match="2 jobs but 1 names"):
         run_jobs(int, ["1", "2"], workers, "parsing", "sample", False, names=["one"])
+
+
+def test_frame_settings_fill_in_older_configs_and_refuse_malformed_values():
+    from e2vlib.data.config import frame_settings
+
+    assert frame_settings({"frame_size": 64}) == {  # missing keys: the defaults of old builds
+        "n_frames": 100, "dt_us": 5000, "windows": "fixed", "frame_size": 64}
+    assert frame_settings({}) == {
+        "n_frames": 100, "dt_us": 5000, "windows": "fixed", "frame_size": None}
+    assert frame_settings({"n_frames": np.int64(20), "frame_size": None}) == {
+        "n_frames": 20, "dt_us": 5000, "windows": "fixed", "frame_size": None}
+    assert type(frame_settings({"n_frames": np.int64(20)})["n_frames"]) is int
+    for bad, problem in [({"n_frames": "20"}, r"n_frames must be a whole number >= 1, got '20' "
+                                              r"\(str\); write it as a number"),
+                         ({"n_frames": None}, r"n_frames .* got None .* default 100"),
+                         ({"dt_us": 0}, r"dt_us .* got 0"),
+                         ({"dt_us": True}, r"dt_us .* got True"),
+                         ({"frame_size": 64.0}, r"frame_size .* got 64.0 \(float\).* if unknown"),
+                         ({"windows": None}, r"windows must be one of fixed, paper, got None"),
+                         ({"windows": "Fixed"}, r"windows must be one of .*'Fixed'")]:
+        with pytest.raises(ValueError, match=problem):
+            frame_settings(bad)

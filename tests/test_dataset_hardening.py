@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from e2vlib.data import (
@@ -528,8 +528,6 @@ def dataset_folders(draw):
     return json.dumps(config), rows, broken
 
 
-@settings(max_examples=150, deadline=None, database=None,
-          suppress_health_check=[HealthCheck.too_slow])
 @given(dataset_folders())
 def test_random_folders_load_consistent_items_or_raise_dataset_error(folder):
     config_text, rows, broken = folder

@@ -10,7 +10,6 @@ from e2vlib.data import BuildConfig, E2VDataset, build_dataset
 from e2vlib.experiments import (
     STUDIES,
     best_threshold,
-    canonical_protocol,
     command_line,
     compare,
     grey_input,
@@ -18,7 +17,7 @@ from e2vlib.experiments import (
     run_study,
     summarize,
 )
-from e2vlib.experiments.protocol import Protocol
+from e2vlib.experiments.protocol import Protocol, canonical_protocol
 
 RECORD_KEYS = {"config", "params", "seed", "metrics", "best_epoch", "train_seconds", "device",
                "commit"}
@@ -309,13 +308,14 @@ def test_the_render_study_scores_each_model_on_both_kinds_of_render(tiny_events_
 
 def test_the_render_study_names_the_command_that_builds_its_data(monkeypatch, tmp_path):
     import e2vlib.experiments as experiments
-    from e2vlib.__main__ import _build_config, build_parser
+    from e2vlib.__main__ import build_parser
+    from e2vlib.cli.data_commands import build_config
 
     assert STUDIES["render"].configs["none"] == {"data": experiments.RENDER_CACHE}
     args = build_parser().parse_args(experiments.RENDER_COMMAND.split()[3:])
     assert args.out == experiments.RENDER_CACHE
     small = json.loads((experiments.REPO / "data_small" / "config.json").read_text())
-    assert _build_config(args) == BuildConfig.from_dict({**small, "anti_aliasing": "none"})
+    assert build_config(args) == BuildConfig.from_dict({**small, "anti_aliasing": "none"})
     missing = str(tmp_path / "not_built")
     monkeypatch.setitem(experiments.DATA_COMMANDS, missing, "python -m e2vlib make-data X")
     with pytest.raises(FileNotFoundError, match="make-data X"):
@@ -324,7 +324,8 @@ def test_the_render_study_names_the_command_that_builds_its_data(monkeypatch, tm
 
 def test_cache_commands_build_data_smalls_objects_with_the_stated_changes():
     import e2vlib.experiments as experiments
-    from e2vlib.__main__ import _build_config, build_parser
+    from e2vlib.__main__ import build_parser
+    from e2vlib.cli.data_commands import build_config
 
     small = json.loads((experiments.REPO / "data_small" / "config.json").read_text())
     assert BuildConfig(**experiments.SMALL_SETTINGS) == BuildConfig.from_dict(
@@ -339,7 +340,7 @@ def test_cache_commands_build_data_smalls_objects_with_the_stated_changes():
     }
     for command, changes in expected.items():
         args = build_parser().parse_args(command.split()[3:])
-        assert _build_config(args) == BuildConfig.from_dict({**small, **changes}), command
+        assert build_config(args) == BuildConfig.from_dict({**small, **changes}), command
         assert args.workers == experiments.BUILD_WORKERS
 
 

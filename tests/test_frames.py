@@ -1,9 +1,18 @@
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
-from e2vlib import frames
 from e2vlib.events import EventError, make_events
-from e2vlib.frames import accumulate, downsample, time_surface, voxel_grid, window_count
+from e2vlib.frames import (
+    accumulate,
+    downsample,
+    paper_group_bounds,
+    time_surface,
+    voxel_grid,
+    window_count,
+)
 
 
 def test_binary_frames_by_hand(small_events):
@@ -131,6 +140,45 @@ def test_downsample_max_for_binary_sum_for_counts():
         downsample(np.zeros((1, 5, 4)), 2)
 
 
+def test_downsample_pools_blocks_as_the_reshape_definition():
+    # block (i, j) of the result pools rows f*i .. f*i+f-1 and columns f*j .. f*j+f-1
+    rng = np.random.default_rng(2)
+    for dtype, reduce, out in ((np.uint8, "max", np.uint8), (np.bool_, "max", np.bool_),
+                               (np.int32, "sum", np.int64), (np.float32, "sum", np.float32),
+                               (np.uint8, "sum", np.uint64), (np.int32, "max", np.int32)):
+        a = (rng.random((3, 2, 6, 9)) * 4).astype(dtype)
+        blocks = a.reshape(3, 2, 2, 3, 3, 3)
+        expected = blocks.max(axis=(-3, -1)) if reduce == "max" else blocks.sum(axis=(-3, -1))
+        got = downsample(a, 3, reduce)
+        assert got.dtype == out and got.shape == (3, 2, 2, 3)
+        np.testing.assert_array_equal(got, expected)
+    assert downsample(np.zeros((0, 4, 4), np.uint8), 2).shape == (0, 2, 2)
+    with pytest.raises(ValueError, match="factor must be a positive integer"):
+        downsample(np.zeros((1, 4, 4)), 0)
+    with pytest.raises(ValueError, match="at least 2 dimensions"):
+        downsample(np.zeros(4), 2)
+    with pytest.raises(ValueError, match="reduce must be"):
+        downsample(np.zeros((1, 4, 4)), 2, "mean")
+
+
+@pytest.mark.parametrize("t0", [2.5, "0", 2**63, float("nan")])
+def test_bad_t0_is_a_named_error(small_events, t0):
+    with pytest.raises(EventError, match="t0_us must be a whole number of microseconds"):
+        accumulate(small_events, (4, 3), t0_us=t0)
+
+
+def test_paper_group_bounds_read_the_strided_time_column(small_events):
+    t = small_events["t"]  # a strided view into the structured array
+    assert not t.flags.c_contiguous
+    np.testing.assert_array_equal(paper_group_bounds(t, 5000), paper_group_bounds(t.copy(), 5000))
+    bounds = paper_group_bounds(t, 5000)
+    assert bounds[0] == 0 and bounds[-1] == len(t) and np.all(np.diff(bounds) > 0)
+    for g in range(len(bounds) - 1):  # each group spans at most dt from its first event
+        assert t[bounds[g + 1] - 1] - t[bounds[g]] <= 5000
+        if bounds[g + 1] < len(t):  # and the next event is past it
+            assert t[bounds[g + 1]] - t[bounds[g]] > 5000
+
+
 # --- the paper's Eq. 5 grouping (windows="paper") ------------------------------------------
 
 
@@ -220,79 +268,89 @@ def test_huge_frame_stacks_are_refused_before_allocating():
         accumulate(ev, (64, 64), dt_us=1, t0_us=0)
 
 
-# --- backends: the compiled kernel (numba) against the numpy reference ---------------------
+# --- accumulate_fast (e2vlib.scale.frames_numba) against accumulate -----------------------
 
-BACKENDS = ["numpy", pytest.param("numba", marks=pytest.mark.skipif(
-    frames._fast_kernels() is None, reason="numba is not installed"))]
-needs_numba = pytest.mark.skipif(frames._fast_kernels() is None, reason="numba is not installed")
+try:
+    from e2vlib.scale import frames_numba
+except ImportError:  # numba is not installed
+    frames_numba = None
+needs_numba = pytest.mark.skipif(frames_numba is None, reason="numba is not installed")
+BACKENDS = ["numpy", pytest.param("numba", marks=needs_numba)]
+
+
+def _accumulator(backend: str):
+    """``accumulate`` (numpy) or ``accumulate_fast`` (numba): the same arguments."""
+    return accumulate if backend == "numpy" else frames_numba.accumulate_fast
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_each_backend_gives_the_hand_computed_frames(small_events, backend):
-    ev, size = small_events, (4, 3)
-    binary = accumulate(ev, size, dt_us=5000, backend=backend)
+    acc, ev, size = _accumulator(backend), small_events, (4, 3)
+    binary = acc(ev, size, dt_us=5000)
     expected = np.zeros((3, 3, 4), dtype=np.uint8)
     expected[0, 0, 0] = expected[0, 0, 1] = expected[1, 2, 3] = expected[1, 1, 0] = 1
     expected[2, 2, 2] = 1
     np.testing.assert_array_equal(binary, expected)
     assert binary.dtype == np.uint8
-    counts = accumulate(ev, size, dt_us=5000, mode="count", backend=backend)
+    counts = acc(ev, size, dt_us=5000, mode="count")
     assert counts.dtype == np.int32 and counts[0, 0, 1] == 2 and counts.sum() == 6
-    pol = accumulate(ev, size, dt_us=5000, mode="polarity", backend=backend)
+    pol = acc(ev, size, dt_us=5000, mode="polarity")
     assert pol.shape == (3, 2, 3, 4) and pol.dtype == np.int32
     assert pol[0, 0, 0, 1] == pol[0, 1, 0, 1] == pol[0, 1, 0, 0] == pol[2, 0, 2, 2] == 1
     np.testing.assert_array_equal(pol.sum(axis=1), counts)
     # t0 and n_frames: only [5000, 10000) is kept; padding windows after the events are empty
-    one = accumulate(ev, size, dt_us=5000, t0_us=5000, n_frames=1, mode="count", backend=backend)
+    one = acc(ev, size, dt_us=5000, t0_us=5000, n_frames=1, mode="count")
     assert one.shape == (1, 3, 4) and one.sum() == 2
-    padded = accumulate(ev, size, dt_us=5000, t0_us=0, n_frames=5, mode="count",
-                        backend=backend)
+    padded = acc(ev, size, dt_us=5000, t0_us=0, n_frames=5, mode="count")
     assert padded.shape == (5, 3, 4) and padded[:3].sum() == 6 and padded[3:].sum() == 0
-    assert accumulate(ev, size, dt_us=5000, n_frames=0, backend=backend).shape == (0, 3, 4)
-    late = accumulate(ev, size, dt_us=1000, t0_us=100_000, n_frames=3, backend=backend)
+    assert acc(ev, size, dt_us=5000, n_frames=0).shape == (0, 3, 4)
+    late = acc(ev, size, dt_us=1000, t0_us=100_000, n_frames=3)
     assert late.shape == (3, 3, 4) and late.sum() == 0
     for mode, shape in (("binary", (0, 3, 4)), ("polarity", (0, 2, 3, 4))):
-        assert accumulate(ev[:0], size, mode=mode, backend=backend).shape == shape
-        assert accumulate(ev[:0], size, mode=mode, windows="paper", backend=backend).shape == shape
+        assert acc(ev[:0], size, mode=mode).shape == shape
+        assert acc(ev[:0], size, mode=mode, windows="paper").shape == shape
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_each_backend_gives_the_hand_computed_paper_groups(backend):
+    acc = _accumulator(backend)
     ev = make_events([0, 1, 2, 3, 0, 1], [0] * 6, [0, 3, 5, 6, 11, 20], [1, 1, -1, 1, 1, -1])
-    kw = {"dt_us": 5, "windows": "paper", "backend": backend}
-    counts = accumulate(ev, (4, 1), mode="count", **kw)
+    kw = {"dt_us": 5, "windows": "paper"}
+    counts = acc(ev, (4, 1), mode="count", **kw)
     assert counts[:, 0].tolist() == [[1, 1, 1, 0], [1, 0, 0, 1], [0, 1, 0, 0]]
-    pol = accumulate(ev, (4, 1), mode="polarity", **kw)
+    pol = acc(ev, (4, 1), mode="polarity", **kw)
     assert pol[:, 0, 0].tolist() == [[0, 0, 1, 0], [0, 0, 0, 0], [0, 1, 0, 0]]  # OFF
     assert pol[:, 1, 0].tolist() == [[1, 1, 0, 0], [1, 0, 0, 1], [0, 0, 0, 0]]  # ON
     # n_frames pads at the end and drops later groups; t0 leaves out earlier events
-    padded = accumulate(ev, (4, 1), mode="count", n_frames=4, **kw)
+    padded = acc(ev, (4, 1), mode="count", n_frames=4, **kw)
     assert padded[:, 0].tolist() == counts[:, 0].tolist() + [[0, 0, 0, 0]]
-    assert accumulate(ev, (4, 1), mode="count", n_frames=1, **kw)[:, 0].tolist() == [[1, 1, 1, 0]]
-    late = accumulate(ev, (4, 1), mode="count", t0_us=4, **kw)  # groups {5, 6} {11} {20}
+    assert acc(ev, (4, 1), mode="count", n_frames=1, **kw)[:, 0].tolist() == [[1, 1, 1, 0]]
+    late = acc(ev, (4, 1), mode="count", t0_us=4, **kw)  # groups {5, 6} {11} {20}
     assert late[:, 0].tolist() == [[0, 0, 1, 1], [1, 0, 0, 0], [0, 1, 0, 0]]
     gaps = make_events([0, 0, 0], [0, 0, 0], [0, 1_000, 1_000_000], [1, -1, 1])
-    assert accumulate(gaps, (1, 1), dt_us=5000, windows="paper", backend=backend).shape[0] == 2
+    assert acc(gaps, (1, 1), dt_us=5000, windows="paper").shape[0] == 2
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_each_backend_counts_past_uint16_and_times_at_the_int64_ends(backend):
+    acc = _accumulator(backend)
     # 70,000 events on one pixel in one window: more than the kernel's uint16 scratch holds
     n = 70_000
     ev = make_events(np.zeros(n, int), np.zeros(n, int), np.arange(n) // 10, np.ones(n, int))
-    counts = accumulate(ev, (3, 2), dt_us=10_000, mode="count", backend=backend)
+    counts = acc(ev, (3, 2), dt_us=10_000, mode="count")
     assert counts.shape == (1, 2, 3) and counts[0, 0, 0] == n and counts.sum() == n
-    pol = accumulate(ev, (3, 2), dt_us=10_000, mode="polarity", windows="paper",
-                     backend=backend)
+    pol = acc(ev, (3, 2), dt_us=10_000, mode="polarity", windows="paper")
     assert pol[0, 1, 0, 0] == n and pol.sum() == n
     # times at both ends of int64: the span overflows int64, windows of 2^62 us still work
     lo, hi = np.iinfo(np.int64).min, np.iinfo(np.int64).max
     ends = make_events([0, 1, 1], [0, 0, 0], [lo, 0, hi], [1, -1, 1])
-    wide = accumulate(ends, (2, 1), dt_us=2**62, mode="count", backend=backend)
+    wide = acc(ends, (2, 1), dt_us=2**62, mode="count")
     assert wide[:, 0].tolist() == [[1, 0], [0, 0], [0, 1], [0, 1]]
-    groups = accumulate(ends, (2, 1), dt_us=2**63, mode="count", windows="paper",
-                        backend=backend)
+    groups = acc(ends, (2, 1), dt_us=2**63, mode="count", windows="paper")
     assert groups[:, 0].tolist() == [[1, 1], [0, 1]]  # 0 - lo = 2^63 <= dt; hi - 0 < dt too
+    # one window as long as the whole int64 range: t - t0 = 2^64 - 1 is its last microsecond
+    whole = acc(ends, (2, 1), dt_us=2**64 - 1, mode="count")
+    assert whole[:, 0].tolist() == [[1, 1], [0, 1]]
 
 
 @needs_numba
@@ -300,27 +358,28 @@ def test_backends_raise_the_same_errors(small_events):
     bad_p = small_events.copy()
     bad_p["p"][2] = 0
     wrong_dtype = np.zeros(3, dtype=[("x", "<i8"), ("y", "<i8"), ("t", "<i8"), ("p", "<i8")])
-    cases = [(small_events, (2, 2)), (small_events[::-1], (4, 3)), (bad_p, (4, 3)),
-             (wrong_dtype, (4, 3)), (np.zeros(3), (4, 3))]
-    for events, size in cases:
+    cases = [(small_events, (2, 2), {}), (small_events[::-1], (4, 3), {}), (bad_p, (4, 3), {}),
+             (wrong_dtype, (4, 3), {}), (np.zeros(3), (4, 3), {}),
+             (small_events, (4, 3), {"dt_us": 0}), (small_events, (4, 3), {"t0_us": 2.5}),
+             (small_events, (4, 3), {"n_frames": -1}),
+             (bad_p, (4, 3), {"dt_us": 0}),  # broken events are reported before settings
+             (small_events, (65535, 65535), {"t0_us": 0, "n_frames": 10**6})]
+    for events, size, kwargs in cases:
         for windows in ("fixed", "paper"):
             messages = []
             for backend in ("numpy", "numba"):
                 with pytest.raises(EventError) as err:
-                    accumulate(events, size, windows=windows, mode="count", backend=backend)
+                    _accumulator(backend)(events, size, windows=windows, mode="count", **kwargs)
                 messages.append(str(err.value))
             assert messages[0] == messages[1]
 
 
-def test_auto_backend_falls_back_to_numpy_without_numba(monkeypatch, random_events):
-    ev, size = random_events
-    expected = accumulate(ev, size, mode="polarity", backend="numpy")
-    monkeypatch.setattr(frames, "_fast_kernels", lambda: None)
-    np.testing.assert_array_equal(accumulate(ev, size, mode="polarity"), expected)
-    with pytest.raises(ModuleNotFoundError, match="backend='numpy'"):
-        accumulate(ev, size, backend="numba")
-    with pytest.raises(ValueError, match="backend must be one of"):
-        accumulate(ev, size, backend="cuda")
+def test_frames_imports_neither_numba_nor_the_scale_band():
+    code = ("import sys, e2vlib.frames; print(sorted(m for m in sys.modules "
+            "if m.split('.')[0] == 'numba' or m.startswith('e2vlib.scale')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120)
+    assert out.stdout.strip() == "[]"
 
 
 @needs_numba
@@ -329,9 +388,8 @@ def test_auto_backend_falls_back_to_numpy_without_numba(monkeypatch, random_even
 @pytest.mark.parametrize("mode", ["binary", "count", "polarity"])
 def test_backends_agree_on_sparse_and_busy_frames(mode, windows, threads, monkeypatch):
     if threads:  # cut into 3 parts counted in threads, as streams of >= 1 M events are
-        from e2vlib.scale import frames_numba as frames_fast
-        monkeypatch.setattr(frames_fast, "THREADED_MIN_EVENTS", 1)
-        monkeypatch.setattr(frames_fast, "_cores", lambda: 3)
+        monkeypatch.setattr(frames_numba, "THREADED_MIN_EVENTS", 1)
+        monkeypatch.setattr(frames_numba, "_cores", lambda: 3)
     # a big sensor with a few events per frame (flushed event by event) and bursts that
     # fill frames (flushed pixel by pixel), with gaps, repeated times and a t0 inside
     rng = np.random.default_rng(7)
@@ -341,8 +399,8 @@ def test_backends_agree_on_sparse_and_busy_frames(mode, windows, threads, monkey
                      rng.choice([-1, 1], len(t)))
     for t0, n in ((None, None), (150_000, None), (0, 7), (5_000, 300)):
         kw = {"dt_us": 3_000, "t0_us": t0, "n_frames": n, "mode": mode, "windows": windows}
-        ref = accumulate(ev, (96, 64), backend="numpy", **kw)
-        fast = accumulate(ev, (96, 64), backend="numba", **kw)
+        ref = accumulate(ev, (96, 64), **kw)
+        fast = frames_numba.accumulate_fast(ev, (96, 64), **kw)
         assert fast.dtype == ref.dtype and fast.shape == ref.shape
         np.testing.assert_array_equal(fast, ref)
 
@@ -352,14 +410,38 @@ def test_backends_agree_on_sparse_and_busy_frames(mode, windows, threads, monkey
 def test_threaded_counting_reports_unsorted_times(windows, monkeypatch):
     # each half sorted, the later half first: the cuts found by bisection or galloping mean
     # nothing then, and the parts' own checks (or the one across each cut) must report it
-    from e2vlib.scale import frames_numba as frames_fast
-    monkeypatch.setattr(frames_fast, "THREADED_MIN_EVENTS", 1)
-    monkeypatch.setattr(frames_fast, "_cores", lambda: 2)
+    monkeypatch.setattr(frames_numba, "THREADED_MIN_EVENTS", 1)
+    monkeypatch.setattr(frames_numba, "_cores", lambda: 2)
     rng = np.random.default_rng(3)
     t = np.sort(rng.integers(0, 100_000, 2_000))
     t = np.concatenate([t[1_000:], t[:1_000]])
     ev = make_events(rng.integers(0, 8, 2_000), rng.integers(0, 8, 2_000), t,
                      rng.choice([-1, 1], 2_000))
     with pytest.raises(EventError, match="not sorted"):
-        accumulate(ev, (8, 8), dt_us=5_000, t0_us=0, n_frames=20, windows=windows,
-                   backend="numba")
+        frames_numba.accumulate_fast(ev, (8, 8), dt_us=5_000, t0_us=0, n_frames=20,
+                                     windows=windows)
+
+
+@needs_numba
+def test_accumulate_fast_matches_accumulate_on_many_random_streams():
+    # a seeded sweep beside the Hypothesis properties (tests/test_properties.py): sensors,
+    # lengths, bursts, t0 and n_frames drawn at random, every mode and both windows
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        width, height = int(rng.integers(1, 50)), int(rng.integers(1, 40))
+        n = int(rng.integers(0, 4_000))
+        t = np.sort(rng.integers(0, int(rng.choice([1_000, 100_000, 2_000_000])), n))
+        ev = make_events(rng.integers(0, width, n), rng.integers(0, height, n),
+                         t + int(rng.choice([0, -10**6, 1_700_000_000_000_000])),
+                         rng.choice([-1, 1], n))
+        t0 = None if rng.random() < 0.5 or not n else int(ev["t"][int(rng.integers(0, n))])
+        n_frames = None if rng.random() < 0.5 else int(rng.integers(0, 60))
+        dt = int(rng.integers(1, 20_000))
+        for mode in ("binary", "count", "polarity"):
+            for windows in ("fixed", "paper"):
+                kw = {"dt_us": dt, "t0_us": t0, "n_frames": n_frames, "mode": mode,
+                      "windows": windows}
+                ref = accumulate(ev, (width, height), **kw)
+                fast = frames_numba.accumulate_fast(ev, (width, height), **kw)
+                assert fast.dtype == ref.dtype and fast.shape == ref.shape
+                np.testing.assert_array_equal(fast, ref)

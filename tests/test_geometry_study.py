@@ -62,8 +62,8 @@ def test_added_checkpoints_score_like_learned_and_keep_the_carving(tiny_data, tm
 
     from e2vlib.experiments.geometry_study import add_checkpoints
     from e2vlib.geometry import score_occupancy
-    from e2vlib.train import category_mean_shapes
     from e2vlib.inputs import preload
+    from e2vlib.train import category_mean_shapes
 
     path = run_geometry_study(tmp_path, data=tiny_data, events=tiny_data, n_points=256,
                               progress=False)

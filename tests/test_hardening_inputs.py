@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from e2vlib import frames
 from e2vlib.events import EventError, check_sensor_size, make_events
 from e2vlib.frames import accumulate
 from e2vlib.io import load_events
@@ -73,28 +72,38 @@ def test_sensor_sizes_beyond_uint16_are_refused_everywhere(tmp_path):
         load_events(path)
 
 
-def test_accumulate_caps_memory_at_half_of_what_is_available(monkeypatch):
+def test_accumulate_refuses_stacks_over_its_fixed_cap():
     one = make_events([0], [0], [0], [1])
-    monkeypatch.setattr(frames, "available_memory", lambda: 2 * 2**30)
-    assert frames.frames_memory_limit() == (2**30, "half the 2.0 GiB of memory available now")
+    # one event on a 65535^2 sensor, 3 frames: 12 GiB of frames, more than 8 GiB
+    with pytest.raises(EventError, match=r"3 frames of 4294836225 values would take 12.00 GiB "
+                                         r"\(limit 8.00 GiB: frames.MAX_FRAMES_BYTES\)"):
+        accumulate(one, (65535, 65535), n_frames=3)
+    assert accumulate(one, (64, 64), n_frames=2).shape == (2, 64, 64)  # small stacks still work
+
+
+def test_accumulate_fast_caps_memory_at_half_of_what_is_available(monkeypatch):
+    frames_numba = pytest.importorskip("e2vlib.scale.frames_numba", reason="numba is missing")
+    one = make_events([0], [0], [0], [1])
+    monkeypatch.setattr(frames_numba, "available_memory", lambda: 2 * 2**30)
+    assert frames_numba.frames_memory_limit() == (2**30,
+                                                  "half the 2.0 GiB of memory available now")
     # one event on a 65535^2 sensor: 4 GiB of frames, more than half of 2 GiB
     with pytest.raises(EventError, match=r"1 frames of 4294836225 values would take 4.00 GiB "
                                          r"\(limit 1.00 GiB: half the 2.0 GiB of memory "
                                          r"available now\)"):
-        accumulate(one, (65535, 65535), n_frames=1)
-    assert accumulate(one, (64, 64), n_frames=2).shape == (2, 64, 64)  # small stacks still work
-    # where the free memory cannot be read, the fixed 8 GiB cap says what it is
-    monkeypatch.setattr(frames, "available_memory", lambda: None)
-    assert frames.frames_memory_limit() == (8 * 2**30, "frames.MAX_FRAMES_BYTES")
+        frames_numba.accumulate_fast(one, (65535, 65535), n_frames=1)
+    assert frames_numba.accumulate_fast(one, (64, 64), n_frames=2).shape == (2, 64, 64)
+    # with plenty of memory free, the fixed 8 GiB cap says what it is
+    monkeypatch.setattr(frames_numba, "available_memory", lambda: 64 * 2**30)
+    assert frames_numba.frames_memory_limit() == (8 * 2**30, "frames.MAX_FRAMES_BYTES")
     with pytest.raises(EventError, match=r"limit 8.00 GiB: frames.MAX_FRAMES_BYTES"):
-        accumulate(one, (65535, 65535), n_frames=3)
+        frames_numba.accumulate_fast(one, (65535, 65535), n_frames=3)
 
 
 @pytest.mark.parametrize("mode", ["count", "polarity"])
-def test_the_numpy_path_counts_within_the_stack_the_limit_allowed(monkeypatch, mode):
-    # np.bincount's int64 counts and their int32 copy took three times the stack the limit
-    # allowed (a 23 GiB machine ran out of memory in the property tests); stacks over
-    # BINCOUNT_MAX_VALUES (0 here) count each touched value instead
+def test_accumulate_counts_within_the_stack_it_returns(mode):
+    # counting with np.bincount took three times the stack (its int64 counts, then their
+    # int32 copy); np.unique's counts need memory per event, not per value
     events = make_events([0, 5, 5, 5], [0, 7, 7, 7], [0, 10, 20, 1500], [1, -1, 1, 1])
     expected = np.zeros((4, 1024, 1024) if mode == "count" else (4, 2, 1024, 1024), np.int32)
     if mode == "count":
@@ -102,24 +111,19 @@ def test_the_numpy_path_counts_within_the_stack_the_limit_allowed(monkeypatch, m
     else:  # channel 0 OFF, 1 ON
         expected[0, 1, 0, 0] = expected[0, 0, 7, 5] = expected[0, 1, 7, 5] = 1
         expected[1, 1, 7, 5] = 1
-    monkeypatch.setattr(frames, "BINCOUNT_MAX_VALUES", 0)
     tracemalloc.start()
     try:
-        stack = accumulate(events, (1024, 1024), dt_us=1000, n_frames=4, mode=mode,
-                           backend="numpy")
+        stack = accumulate(events, (1024, 1024), dt_us=1000, n_frames=4, mode=mode)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    assert stack.dtype == np.int32 and peak < 1.1 * stack.nbytes  # was 3.0 x
+    assert stack.dtype == np.int32 and peak < 1.1 * stack.nbytes
     np.testing.assert_array_equal(stack, expected)
-    monkeypatch.setattr(frames, "BINCOUNT_MAX_VALUES", 2**25)  # np.bincount: the same counts
-    np.testing.assert_array_equal(accumulate(events, (1024, 1024), dt_us=1000, n_frames=4,
-                                             mode=mode, backend="numpy"), expected)
 
 
 def test_available_memory_is_read_on_this_machine():
-    available = frames.available_memory()
-    assert available is None or available > 2**20
+    frames_numba = pytest.importorskip("e2vlib.scale.frames_numba", reason="numba is missing")
+    assert frames_numba.available_memory() > 2**20
 
 
 # --- errors that name the file ------------------------------------------------------------------

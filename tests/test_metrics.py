@@ -7,7 +7,7 @@ from e2vlib.metrics import (
     category_means,
     fscore,
     iou,
-    summarize,
+    score_table,
     surface_points,
     surface_voxel_fscore,
     surface_voxels,
@@ -147,11 +147,11 @@ def test_category_means():
         category_means([0.1, 0.2], ["chair"])
 
 
-def test_summarize_matches_the_evaluate_layout():
+def test_score_table_matches_the_evaluate_layout():
     from e2vlib.metrics import format_table
 
     scores = {"iou@0.3": np.array([0.25, 0.75, 0.9]), "fscore@1%": torch.tensor([0.0, 1.0, 0.5])}
-    table = summarize(scores, ["chair", "chair", "lamp"])
+    table = score_table(scores, ["chair", "chair", "lamp"])
     assert table["overall"] == {"iou@0.3": pytest.approx(1.9 / 3), "fscore@1%": 0.5}
     assert table["per_category"]["chair"] == {"iou@0.3": 0.5, "fscore@1%": 0.5, "n": 2}
     assert table["per_category"]["lamp"] == {"iou@0.3": 0.9, "fscore@1%": 0.5, "n": 1}

@@ -1,7 +1,8 @@
 """Property-based tests (Hypothesis): file round trips and frame accumulation invariants.
 
-Each property is checked on ~50 generated examples (small sensors, short streams), so the
-file runs in seconds. Hypothesis shrinks any failure to a minimal event stream.
+Each property is checked on generated examples (small sensors, short streams): 10 under
+``make test``, 150 under ``make test-all`` (the Hypothesis profiles in tests/conftest.py).
+Hypothesis shrinks any failure to a minimal event stream.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from unittest import mock
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from e2vlib import frames
@@ -21,9 +22,6 @@ from e2vlib.events import EVENT_DTYPE, INT64_MAX, INT64_MIN, EventError, make_ev
 from e2vlib.frames import accumulate
 from e2vlib.io import load_events, save_events
 
-# database=None: no .hypothesis/ folder is written into the repository
-SETTINGS = settings(max_examples=50, deadline=None, database=None,
-                    suppress_health_check=[HealthCheck.too_slow])
 WRITABLE = (".npz", ".txt", ".txt.gz", ".h5")
 
 
@@ -43,7 +41,6 @@ def event_streams(draw, t_min: int = INT64_MIN, t_max: int = INT64_MAX, max_even
     return events, (width, height)
 
 
-@SETTINGS
 @given(stream=event_streams())
 @pytest.mark.parametrize("ending", WRITABLE)
 def test_any_valid_events_survive_save_and_load_exactly(ending, stream):
@@ -88,7 +85,6 @@ def _eq5_inside(t: np.ndarray, dt: int, t0: int, n_frames: int | None) -> np.nda
     return inside
 
 
-@SETTINGS
 @given(stream=SMALL_STREAMS, dt=st.integers(100, 5_000),
        t0_shift=st.one_of(st.none(), st.integers(-3_000, 20_000)),
        n_frames=st.one_of(st.none(), st.integers(0, 40)))
@@ -114,7 +110,6 @@ def test_fixed_windows_never_lose_an_event_inside_them(stream, dt, t0_shift, n_f
     np.testing.assert_array_equal(counts, expected)
 
 
-@SETTINGS
 @given(stream=SMALL_STREAMS, dt=st.integers(100, 5_000),
        t0_shift=st.one_of(st.none(), st.integers(-3_000, 20_000)),
        n_frames=st.one_of(st.none(), st.integers(0, 40)))
@@ -131,7 +126,6 @@ def test_paper_windows_never_lose_an_event_inside_them(stream, dt, t0_shift, n_f
         assert np.all(counts.sum(axis=(1, 2)) > 0)
 
 
-@SETTINGS
 @given(stream=SMALL_STREAMS, dt=st.integers(100, 5_000),
        windows=st.sampled_from(["fixed", "paper"]),
        n_frames=st.one_of(st.none(), st.integers(0, 40)))
@@ -158,37 +152,43 @@ def test_binary_at_most_count_and_polarity_channels_sum_to_count(stream, dt, win
     assert int(polarity[:, 1].sum()) == int(np.count_nonzero(inside & (events["p"] == 1)))
 
 
-# --- the compiled kernel (numba) equals the numpy reference ---------------------------------
+# --- accumulate_fast (numba) equals accumulate (numpy) ----------------------------------------
 
-needs_numba = pytest.mark.skipif(frames._fast_kernels() is None, reason="numba is not installed")
+try:
+    from e2vlib.scale import frames_numba
+except ImportError:  # numba is not installed
+    frames_numba = None
+needs_numba = pytest.mark.skipif(frames_numba is None, reason="numba is not installed")
 
 
 @contextlib.contextmanager
 def _threads(on: bool):
-    """With ``on``, the numba backend cuts every stream into parts counted in threads (as
+    """With ``on``, ``accumulate_fast`` cuts every stream into parts counted in threads (as
     it does for streams of a million events and more), up to 4 parts whatever the cores."""
-    if not on or frames._fast_kernels() is None:
+    if not on:
         yield
         return
-    kernels = frames._fast_kernels()
-    with mock.patch.object(kernels, "THREADED_MIN_EVENTS", 1), \
-            mock.patch.object(kernels, "_cores", lambda: 4):
+    with mock.patch.object(frames_numba, "THREADED_MIN_EVENTS", 1), \
+            mock.patch.object(frames_numba, "_cores", lambda: 4):
         yield
 
 
 @contextlib.contextmanager
 def _memory_limit(limit: int = 2**28):
-    """accumulate's memory limit fixed at ``limit`` bytes, whatever memory is free: both
-    backends holding stacks of gigabytes ran a 23 GiB machine out of memory, and the free
+    """Both accumulators' memory limit fixed at ``limit`` bytes, whatever memory is free:
+    both holding stacks of gigabytes ran a 23 GiB machine out of memory, and the free
     memory changes between the two calls (so could their limits, and answers)."""
     with mock.patch.object(frames, "MAX_FRAMES_BYTES", limit), \
-            mock.patch.object(frames, "available_memory", lambda: None):
+            mock.patch.object(frames_numba, "available_memory", lambda: 2**50):
         yield
 
 
-def _outcome(events, sensor_size, **kwargs):
-    """``accumulate``'s frames, or the text of the EventError it raised."""
+def _outcome(events, sensor_size, fast=False, **kwargs):
+    """The frames of ``accumulate`` (``accumulate_fast`` when ``fast``), or the text of the
+    EventError it raised."""
     try:
+        if fast:
+            return frames_numba.accumulate_fast(events, sensor_size, **kwargs)
         return accumulate(events, sensor_size, **kwargs)
     except EventError as err:
         return str(err)
@@ -203,46 +203,43 @@ def _assert_same(reference, fast):
 
 
 @needs_numba
-@SETTINGS
 @given(stream=SMALL_STREAMS, dt=st.integers(1, 5_000),
        t0_shift=st.one_of(st.none(), st.integers(-3_000, 20_000)),
        n_frames=st.one_of(st.none(), st.integers(0, 40)),
        mode=st.sampled_from(["binary", "count", "polarity"]),
        windows=st.sampled_from(["fixed", "paper"]), threads=st.booleans())
-def test_numba_and_numpy_backends_give_identical_frames(stream, dt, t0_shift, n_frames, mode,
-                                                        windows, threads):
+def test_accumulate_fast_and_accumulate_give_identical_frames(stream, dt, t0_shift, n_frames,
+                                                              mode, windows, threads):
     events, sensor_size, offset = _shifted(stream)
     kwargs = {"dt_us": dt, "t0_us": None if t0_shift is None else offset + t0_shift,
               "n_frames": n_frames, "mode": mode, "windows": windows}
     with _threads(threads):
-        fast = _outcome(events, sensor_size, backend="numba", **kwargs)
-    _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs), fast)
+        fast = _outcome(events, sensor_size, fast=True, **kwargs)
+    _assert_same(_outcome(events, sensor_size, **kwargs), fast)
 
 
 @needs_numba
-@SETTINGS
 @given(stream=event_streams(max_events=12, max_side=6), dt=st.integers(1, 2**63 - 1),
        n_frames=st.one_of(st.none(), st.integers(0, 6)),
        mode=st.sampled_from(["binary", "count", "polarity"]),
        windows=st.sampled_from(["fixed", "paper"]), threads=st.booleans())
-def test_backends_agree_anywhere_in_the_int64_time_range(stream, dt, n_frames, mode, windows,
-                                                         threads):
+def test_both_agree_anywhere_in_the_int64_time_range(stream, dt, n_frames, mode, windows,
+                                                    threads):
     # times anywhere in int64, windows up to 2^63 us: spans that overflow int64 arithmetic,
-    # and stacks too large to allocate (both backends must refuse them alike: over 256 MiB)
+    # and stacks too large to allocate (both must refuse them alike: over 256 MiB)
     events, sensor_size = stream
     kwargs = {"dt_us": dt, "n_frames": n_frames, "mode": mode, "windows": windows}
     with _memory_limit():
         with _threads(threads):
-            fast = _outcome(events, sensor_size, backend="numba", **kwargs)
-        _assert_same(_outcome(events, sensor_size, backend="numpy", **kwargs), fast)
+            fast = _outcome(events, sensor_size, fast=True, **kwargs)
+        _assert_same(_outcome(events, sensor_size, **kwargs), fast)
 
 
 @needs_numba
-@SETTINGS
 @given(stream=SMALL_STREAMS, broken=st.sampled_from(["x", "y", "p", "t"]),
        where=st.floats(0, 1), windows=st.sampled_from(["fixed", "paper"]),
        threads=st.booleans())
-def test_backends_reject_broken_events_alike(stream, broken, where, windows, threads):
+def test_both_reject_broken_events_alike(stream, broken, where, windows, threads):
     events, sensor_size, _ = _shifted(stream)
     if len(events) < 2:
         return
@@ -256,8 +253,8 @@ def test_backends_reject_broken_events_alike(stream, broken, where, windows, thr
         events["p"][i] = 0
     else:
         events["t"][i] = events["t"][i - 1] - 1 if i else events["t"][1] + 1
-    reference = _outcome(events, sensor_size, dt_us=500, windows=windows, backend="numpy")
+    reference = _outcome(events, sensor_size, dt_us=500, windows=windows)
     assert isinstance(reference, str)
     with _threads(threads):
         assert _outcome(events, sensor_size, dt_us=500, windows=windows,
-                        backend="numba") == reference
+                        fast=True) == reference

@@ -23,7 +23,8 @@ def test_load_results_reads_a_record_and_names_the_command_when_missing(tmp_path
     with pytest.raises(reports.MissingResultsError,
                        match=r"python -m e2vlib experiment time --seeds 0 1 2"):
         reports.load_results("time", tmp_path)
-    with pytest.raises(reports.MissingResultsError, match=r"python -m e2vlib\.real_study "):
+    with pytest.raises(reports.MissingResultsError,
+                       match=r"python -m e2vlib\.experiments\.real_study "):
         reports.load_results("real_meshes", tmp_path)
     (tmp_path / "noise.json").write_text("{not json")
     with pytest.raises(ValueError, match="noise.json is not a readable study record"):

@@ -8,7 +8,12 @@ import numpy as np
 import pytest
 
 from e2vlib.events import EVENT_DTYPE, validate
-from e2vlib.simulate import MIN_CONTRAST, NOISE_LEVELS, draw_thresholds, simulate_events
+from e2vlib.simulate import (
+    MIN_CONTRAST,
+    apply_refractory,
+    draw_thresholds,
+    simulate_events,
+)
 
 EPS = 1e-3
 
@@ -99,17 +104,20 @@ def test_coordinates_follow_frame_indexing():
     assert set(events["x"].tolist()) == {4} and set(events["y"].tolist()) == {1}
 
 
-def scalar_esim(video, t_us, c_on, c_off, refractory_us=0):
+def scalar_esim(video, t_us, c_on, c_off, refractory_us=0, drift=None, offset=None):
     """Hand-written one-pixel-at-a-time ESIM that steps the reference one threshold at a
-    time (an independent formulation of the same model)."""
+    time (an independent formulation of the same model). ``drift`` (log intensity per us)
+    and ``offset`` (added to the first reference) are per-pixel arrays or None."""
     n, h, w = video.shape
-    logs = np.log(video.astype(np.float64) + EPS)
+    ramp = np.zeros((h, w)) if drift is None else drift
+    logs = [np.log(video[j].astype(np.float64) + EPS) + ramp * float(t_us[j] - t_us[0])
+            for j in range(n)]
     out = []
     for y in range(h):
         for x in range(w):
-            ref, last = logs[0, y, x], -(10**18)
+            ref, last = logs[0][y, x] + (0.0 if offset is None else offset[y, x]), -(10**18)
             for j in range(n - 1):
-                l0, l1 = logs[j, y, x], logs[j + 1, y, x]
+                l0, l1 = logs[j][y, x], logs[j + 1][y, x]
                 if l1 == l0:
                     continue
                 crossings = []
@@ -148,6 +156,79 @@ def test_matches_hand_written_scalar_simulator(sigma, refractory):
     assert len(events) > 50
     assert as_sorted_tuples(events) == sorted(expected, key=lambda e: (e[2], e[1], e[0], e[3]))
     assert not np.any((events["x"] == 0) & (events["y"] == 0))
+
+
+def test_drift_and_reference_offset_match_the_scalar_simulator():
+    # the two hooks e2vlib.noise fills for leak events: a log-intensity ramp per pixel and a
+    # shifted first reference, checked against the one-pixel-at-a-time loop
+    rng = np.random.default_rng(12)
+    video = np.clip(0.5 + 0.2 * np.cumsum(rng.normal(size=(10, 3, 4)), axis=0) / 3, 0, 1)
+    t_us = np.cumsum(rng.integers(500, 3000, size=10))
+    c_on, c_off = draw_thresholds((3, 4), 0.15, 0.2, 0.03, seed=2)
+    drift = rng.uniform(0, 2e-4, (3, 4))  # up to 0.2 per ms: several extra ON crossings
+    offset = -rng.random((3, 4)) * c_on
+    for refractory in (0, 400):
+        events = simulate_events(video, t_us, c_on, c_off, refractory_us=refractory,
+                                 drift_per_us=drift, reference_offset=offset)
+        expected = scalar_esim(video, t_us, c_on, c_off, refractory, drift, offset)
+        assert len(events) > 60
+        assert as_sorted_tuples(events) == sorted(expected, key=lambda e: (e[2], e[1], e[0], e[3]))
+
+
+def test_drift_alone_makes_on_events_at_known_times():
+    # a static pixel whose log intensity ramps up by 0.05 per ms crosses C = 0.2 every 4 ms;
+    # with the reference lowered by 0.1 the first crossing comes after 2 ms (9 ms: 2 events)
+    video = np.full((2, 1, 1), 0.5)
+    events = simulate_events(video, [0, 9000], drift_per_us=0.05 / 1000, reference_offset=-0.1)
+    np.testing.assert_array_equal(events["t"], [2000, 6000])
+    assert np.all(events["p"] == 1)
+
+
+def test_per_pixel_threshold_arrays_equal_the_drawn_ones():
+    video = np.random.default_rng(13).random((6, 5, 7))
+    t = np.arange(6) * 1000
+    c_on, c_off = draw_thresholds((5, 7), 0.15, 0.25, 0.05, seed=4)
+    np.testing.assert_array_equal(simulate_events(video, t, c_on, c_off),
+                                  simulate_events(video, t, 0.15, 0.25, 0.05, seed=4))
+    with pytest.raises(ValueError, match=r"one threshold per pixel \(5, 7\)"):
+        simulate_events(video, t, c_on[:, :3])
+    with pytest.raises(ValueError, match="contrast_neg must hold finite thresholds > 0"):
+        simulate_events(video, t, c_on, -c_off)
+
+
+def test_apply_refractory_hand_computed():
+    from e2vlib.events import make_events
+
+    # pixel (0, 0) at 0, 100, 300, 350, 700 with 300 us: 0 kept, 100 dropped, 300 kept,
+    # 350 dropped, 700 kept; pixel (1, 0) on its own; the order of the stream is kept
+    events = make_events([0, 1, 0, 0, 1, 0, 0], [0, 0, 0, 0, 0, 0, 0],
+                         [0, 50, 100, 300, 320, 350, 700], [1, -1, 1, -1, 1, 1, 1])
+    kept = apply_refractory(events, 300)
+    assert kept["t"].tolist() == [0, 50, 300, 700]
+    assert kept["x"].tolist() == [0, 1, 0, 0] and kept["p"].tolist() == [1, -1, -1, 1]
+    # at equal times the earlier event in the stream wins
+    tie = make_events([2, 2], [1, 1], [10, 10], [-1, 1])
+    assert apply_refractory(tie, 1)["p"].tolist() == [-1]
+    assert apply_refractory(events, 0) is events
+    with pytest.raises(ValueError, match="refractory_us must be a finite number >= 0"):
+        apply_refractory(events, -5)
+
+
+def test_apply_refractory_matches_a_loop_over_events():
+    from e2vlib.events import make_events
+
+    rng = np.random.default_rng(14)
+    n = 3000
+    events = make_events(rng.integers(0, 4, n), rng.integers(0, 3, n),
+                         np.sort(rng.integers(0, 200_000, n)), rng.choice([-1, 1], n))
+    last, expected = {}, []
+    for e in events.tolist():
+        x, y, t, _ = e
+        if t - last.get((x, y), -(10**18)) >= 700:
+            last[(x, y)] = t
+            expected.append(e)
+    assert apply_refractory(events, 700).tolist() == expected
+    assert 100 < len(expected) < n
 
 
 def test_net_polarity_tracks_total_log_change():
@@ -235,6 +316,9 @@ def test_input_is_not_modified():
         (np.zeros((2, 2, 2)), [0, 1], {"contrast_sigma": -1}, "contrast_sigma"),
         (np.zeros((2, 2, 2)), [0, 1], {"refractory_us": -1}, "refractory_us"),
         (np.zeros((2, 2, 2)), [0, 1], {"log_eps": 0}, "log_eps"),
+        (np.zeros((2, 2, 2)), [0, 1], {"drift_per_us": np.zeros((3, 3))}, r"per pixel \(2, 2\)"),
+        (np.zeros((2, 2, 2)), [0, 1], {"reference_offset": np.nan}, "reference_offset"),
+        (np.zeros((2, 2, 2)), [0, 1], {"contrast_pos": np.ones((2, 3))}, "one threshold per pixel"),
     ],
 )
 def test_bad_input_raises_value_error(video, t_us, kwargs, match):
@@ -342,142 +426,3 @@ def test_long_frame_gaps_on_big_frames_sort_without_overflow():
     key = np.lexsort((events["y"].astype(int) * 32 + events["x"], events["t"]))
     np.testing.assert_array_equal(key, np.arange(len(events)))
     assert events["t"].min() >= -(2**53) and events["t"].max() <= 2**53
-
-
-# --- sensor noise with v2e's parameters (issue 13) ----------------------------------------
-
-TEN_S = np.array([0, 10_000_000])  # two frames 10 s apart: a static scene is exact with two
-
-
-def _static(h=40, w=50, value=0.5):
-    return np.full((2, h, w), value)
-
-
-def test_leak_rate_measured_on_a_static_scene():
-    # each pixel's reference drifts by C_on * rate per second, so it fires ON events every
-    # 1 / rate seconds from a uniform random phase: per pixel floor(u + rate * T) events,
-    # mean rate * T = 3.7, standard deviation of the mean sqrt(0.7 * 0.3 / 2000) = 0.010
-    events = simulate_events(_static(), TEN_S, contrast_sigma=0.05, leak_rate_hz=0.37, seed=1)
-    validate(events, (50, 40))
-    assert np.all(events["p"] == 1)
-    per_pixel = np.bincount(events["y"].astype(int) * 50 + events["x"], minlength=2000)
-    assert set(per_pixel.tolist()) <= {3, 4}
-    assert abs(per_pixel.mean() - 3.7) < 4 * 0.0103
-    # within a pixel the leak events are exactly 1 / rate apart (to the rounding microsecond)
-    pixel = events[(events["x"] == 7) & (events["y"] == 3)]
-    np.testing.assert_allclose(np.diff(pixel["t"]), 1e6 / 0.37, atol=1.0)
-
-
-def test_shot_noise_rate_and_on_off_balance():
-    # Poisson: 2 Hz x 2000 px x 10 s = 40,000 expected events, sd 200; ON share 1/2, sd 0.0025
-    events = simulate_events(_static(), TEN_S, shot_noise_rate_hz=2.0, seed=2)
-    validate(events, (50, 40))
-    assert abs(len(events) - 40_000) < 4 * 200
-    assert abs(np.mean(events["p"] == 1) - 0.5) < 4 * 0.0025
-    # Poisson counts per pixel: variance equals the mean (index of dispersion 1 +- 4 * 0.032)
-    per_pixel = np.bincount(events["y"].astype(int) * 50 + events["x"], minlength=2000)
-    assert abs(per_pixel.var() / per_pixel.mean() - 1) < 4 * math.sqrt(2 / 1999)
-    assert events["t"].min() >= 0 and events["t"].max() < 10_000_000
-
-
-def test_refractory_period_holds_for_noise_events():
-    # non-paralysable dead time tau: a Poisson rate r is thinned to r / (1 + r tau);
-    # 200 Hz with 2 ms gives 142.86 Hz, 22,857 events on 16 px in 10 s (sd below 151)
-    events = simulate_events(_static(4, 4), TEN_S, shot_noise_rate_hz=200.0,
-                             refractory_us=2000, seed=3)
-    expected = 16 * 10 * 200 / (1 + 200 * 0.002)
-    assert abs(len(events) - expected) < 4 * math.sqrt(expected)
-    for pixel in range(16):
-        times = events["t"][events["y"].astype(int) * 4 + events["x"] == pixel]
-        assert np.all(np.diff(times) >= 2000)
-
-
-def test_refractory_period_holds_across_signal_and_noise():
-    rng = np.random.default_rng(5)
-    video = np.clip(0.5 + 0.3 * np.cumsum(rng.normal(size=(30, 5, 6)), axis=0) / 4, 0, 1)
-    t = np.arange(30) * 2000
-    events = simulate_events(video, t, 0.1, 0.1, refractory_us=1500, seed=0,
-                             shot_noise_rate_hz=300.0, leak_rate_hz=20.0)
-    validate(events, (6, 5))
-    assert np.all(np.diff(events["t"]) >= 0)
-    for pixel in range(30):
-        times = events["t"][events["y"].astype(int) * 6 + events["x"] == pixel]
-        assert np.all(np.diff(times) >= 1500)
-
-
-def test_noisy_output_is_sorted_valid_and_contains_the_signal():
-    rng = np.random.default_rng(6)
-    video = rng.random((8, 9, 11)).astype(np.float32)
-    t = np.array([0, 7, 20, 33, 50, 51, 4000, 9000])
-    clean = simulate_events(video, t)
-    noisy = simulate_events(video, t, shot_noise_rate_hz=50.0, seed=4)
-    validate(noisy, (11, 9))
-    assert np.all(np.diff(noisy["t"]) >= 0)
-    assert noisy["t"].min() >= 0 and noisy["t"].max() <= 9000
-    # shot noise does not move the reference: the signal events are all still there
-    assert len(noisy) > len(clean)
-    signal = {tuple(int(v) for v in e) for e in clean}
-    assert signal <= {tuple(int(v) for v in e) for e in noisy}
-
-
-def test_zero_noise_rates_give_the_noise_free_output_exactly():
-    rng = np.random.default_rng(7)
-    video = rng.random((10, 6, 7))
-    t = np.arange(10) * 1000
-    for kwargs in ({}, {"contrast_sigma": 0.05, "refractory_us": 300}):
-        plain = simulate_events(video, t, seed=9, **kwargs)
-        zero = simulate_events(video, t, seed=9, shot_noise_rate_hz=0.0, leak_rate_hz=0, **kwargs)
-        assert plain.tobytes() == zero.tobytes()
-    np.testing.assert_array_equal(simulate_events(video, t, **NOISE_LEVELS["clean"]),
-                                  simulate_events(video, t))
-
-
-def test_noise_is_reproducible_per_seed_and_keeps_the_thresholds():
-    video = np.random.default_rng(8).random((6, 8, 8))
-    t = np.arange(6) * 100_000
-    kw = {"contrast_sigma": 0.05, "shot_noise_rate_hz": 5.0, "leak_rate_hz": 1.0}
-    a = simulate_events(video, t, seed=1, **kw)
-    np.testing.assert_array_equal(a, simulate_events(video, t, seed=1, **kw))
-    assert not np.array_equal(a, simulate_events(video, t, seed=2, **kw))
-    g1 = simulate_events(video, t, seed=np.random.default_rng(3), **kw)
-    np.testing.assert_array_equal(g1, simulate_events(video, t, seed=np.random.default_rng(3),
-                                                      **kw))
-
-
-def test_v2e_names_are_accepted():
-    video = np.random.default_rng(9).random((6, 5, 5))
-    t = np.arange(6) * 1000
-    np.testing.assert_array_equal(
-        simulate_events(video, t, sigma_thres=0.04, refractory_period_s=0.0015, seed=1),
-        simulate_events(video, t, contrast_sigma=0.04, refractory_us=1500, seed=1))
-    with pytest.raises(ValueError, match="contrast_sigma or its v2e name sigma_thres"):
-        simulate_events(video, t, contrast_sigma=0.02, sigma_thres=0.04)
-    with pytest.raises(ValueError, match="refractory_us or its v2e name refractory_period_s"):
-        simulate_events(video, t, refractory_us=10, refractory_period_s=0.001)
-
-
-def test_noise_levels_presets():
-    assert list(NOISE_LEVELS) == ["clean", "low", "medium", "high"]
-    keys = ("contrast_sigma", "shot_noise_rate_hz", "leak_rate_hz", "refractory_us")
-    for key in keys:
-        values = [NOISE_LEVELS[level][key] for level in NOISE_LEVELS]
-        assert values == sorted(values) and values[0] == 0
-    assert NOISE_LEVELS["high"]["shot_noise_rate_hz"] == 5.0  # v2e's 'noisy' preset
-    n = [len(simulate_events(_static(8, 8), TEN_S, seed=0, **NOISE_LEVELS[k]))
-         for k in NOISE_LEVELS]
-    assert n == sorted(n) and n[0] == 0 and n[-1] > 3000
-
-
-@pytest.mark.parametrize("name", ["shot_noise_rate_hz", "leak_rate_hz", "sigma_thres",
-                                  "refractory_period_s"])
-@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf")])
-def test_bad_noise_values_raise(name, value):
-    with pytest.raises(ValueError, match=name if name != "sigma_thres" else "contrast_sigma"):
-        simulate_events(_static(2, 2), [0, 1000], **{name: value})
-
-
-def test_shot_noise_beyond_max_events_is_refused_before_drawing():
-    from e2vlib.simulate import TooManyEventsError
-
-    with pytest.raises(TooManyEventsError, match="lower shot_noise_rate_hz"):
-        simulate_events(_static(100, 100), [0, 10**9], shot_noise_rate_hz=1e3)

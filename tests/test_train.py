@@ -1,6 +1,7 @@
 import json
 import math
 import os
+import shutil
 from dataclasses import replace
 
 import numpy as np
@@ -8,12 +9,24 @@ import pytest
 import torch
 
 from e2vlib import paper
+from e2vlib.inputs import TensorSet
 from e2vlib.losses import make_loss
+from e2vlib.metrics import format_table, score_predictions
 from e2vlib.model import CheckpointError, build_e2v, load_checkpoint, read_checkpoint
 from e2vlib.model.checkpoint import slim_checkpoint
-from e2vlib.train import COSINE_FLOOR, RECIPES, Recipe, bf16_is_fast, evaluate, fit, lr_at_step, lr_schedule, predict, resolve_device, to_channels_last
-from e2vlib.inputs import TensorSet
-from e2vlib.metrics import format_table, score_predictions
+from e2vlib.scale.training import bf16_is_fast, fit_at_scale, to_channels_last
+from e2vlib.train import (
+    COSINE_FLOOR,
+    RECIPES,
+    Recipe,
+    evaluate,
+    fit,
+    get_recipe,
+    lr_at_step,
+    lr_schedule,
+    predict,
+    resolve_device,
+)
 
 SHAPE = (8, 16, 16)
 
@@ -36,14 +49,57 @@ def toy_set(n=24, seed=0, shape=SHAPE) -> TensorSet:
                      [f"s{i}" for i in range(n)])
 
 
+TRAINED = {"epochs": 4, "lr": 1e-2, "batch_size": 8, "progress": False}
+"""The settings of the shared run (:func:`trained`): 4 epochs of 3 steps on :func:`toy_set`."""
+
+DATA_CONFIG = {"frame_size": SHAPE[1], "n_frames": SHAPE[0], "dt_us": paper.DT_US}
+"""The build settings the shared run stores in its checkpoints."""
+
+
+def without_seconds(history: list[dict]) -> list[dict]:
+    """A history without its wall-clock times, which no two runs share."""
+    return [{k: v for k, v in h.items() if k != "seconds"} for h in history]
+
+
+def same_weights(a: torch.nn.Module, b: torch.nn.Module) -> None:
+    for (name, x), y in zip(a.state_dict().items(), b.state_dict().values(), strict=True):
+        assert torch.equal(x, y), name
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """One plain :func:`fit` of the toy task, shared by the tests that only read it:
+    ``(out folder, trained model, history)``. Tests that write copy the folder first."""
+    out = tmp_path_factory.mktemp("trained")
+    model = small_model()
+    history = fit(model, toy_set(), toy_set(8, seed=1), out, data_config=DATA_CONFIG,
+                  **TRAINED)
+    return out, model, history
+
+
+@pytest.fixture(scope="module")
+def loss_runs(tmp_path_factory):
+    """``run(loss) -> (out folder, history)``: 2 epochs of :func:`fit` with ``loss``, each
+    loss trained once per module."""
+    done = {}
+
+    def run(loss: str):
+        if loss not in done:
+            out = tmp_path_factory.mktemp(loss)
+            done[loss] = out, fit(small_model(), toy_set(16), toy_set(8, seed=1), out,
+                                  epochs=2, lr=1e-2, batch_size=8, loss=loss, progress=False)
+        return done[loss]
+
+    return run
+
+
 def test_paper_recipe_matches_the_paper():
     paper = RECIPES["paper"]
     assert (paper.lr, paper.batch_size, paper.epochs) == (1e-5, 5, 100)
 
 
-def test_fit_learns_a_toy_task_and_writes_files(tmp_path):
-    history = fit(small_model(), toy_set(), toy_set(8, seed=1), tmp_path, epochs=4,
-                  lr=1e-2, batch_size=8, progress=False)
+def test_fit_learns_a_toy_task_and_writes_files(trained):
+    tmp_path, _, history = trained
     assert [h["epoch"] for h in history] == list(range(1, 5))
     assert history[-1]["train_loss"] < 0.5 * history[0]["train_loss"]
     assert history[-1]["val_iou"] > history[0]["val_iou"] + 0.15
@@ -52,21 +108,26 @@ def test_fit_learns_a_toy_task_and_writes_files(tmp_path):
     assert torch.load(tmp_path / "best.pt", weights_only=True)["epoch"] == best["epoch"] - 1
     model = load_checkpoint(tmp_path / "last.pt")
     assert model.input_shape == SHAPE
+    for name in ("last.pt", "best.pt"):
+        assert read_checkpoint(tmp_path / name)["data_config"] == DATA_CONFIG
 
 
-def test_resume_is_exact(tmp_path):
-    kwargs = dict(lr=5e-3, batch_size=8, progress=False, seed=3)
-    straight = small_model()
-    fit(straight, toy_set(), toy_set(8, 1), tmp_path / "a", epochs=2, **kwargs)
-    first = small_model()
-    fit(first, toy_set(), toy_set(8, 1), tmp_path / "b", epochs=1, **kwargs)
+def test_resume_is_exact(trained, tmp_path):
+    _, straight, straight_history = trained
+
+    def crash_after_two(history):
+        if len(history) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):  # fit's last.pt holds what a resume needs
+        fit(small_model(), toy_set(), toy_set(8, 1), tmp_path, data_config=DATA_CONFIG,
+            on_epoch=crash_after_two, **TRAINED)
     resumed = small_model(seed=99)  # different init: everything must come from last.pt
-    history = fit(resumed, toy_set(), toy_set(8, 1), tmp_path / "b", epochs=2, resume=True,
-                  **kwargs)
-    assert len(history) == 2
-    for (name, a), b in zip(straight.state_dict().items(), resumed.state_dict().values(),
-                            strict=True):
-        assert torch.equal(a, b), name
+    history = fit_at_scale(resumed, toy_set(), toy_set(8, 1), tmp_path, resume=True,
+                           data_config=DATA_CONFIG, **TRAINED)
+    assert len(history) == 4
+    assert without_seconds(history) == without_seconds(straight_history)
+    same_weights(straight, resumed)
 
 
 def test_fit_rejects_mismatched_data_and_missing_cuda(tmp_path):
@@ -114,8 +175,8 @@ def _ddp_worker(rank, world, init_file, out_dir):
                             world_size=world)
     torch.set_num_threads(1)
     model = small_model()
-    fit(model, toy_set(), toy_set(8, 1), out_dir, epochs=1, lr=1e-2, batch_size=8,
-        progress=False)
+    fit_at_scale(model, toy_set(), toy_set(8, 1), out_dir, epochs=1, lr=1e-2, batch_size=8,
+                 progress=False)
     torch.save(model.state_dict(), os.path.join(out_dir, f"rank{rank}.pt"))
     dist.destroy_process_group()
 
@@ -166,7 +227,7 @@ def test_tensorset_indexes_like_a_dataset():
         TensorSet(data.frames, data.voxels[:3], data.categories, data.ids)
 
 
-def test_lr_schedule_is_public_and_is_what_fit_uses(tmp_path):
+def test_lr_schedule_is_public_and_is_what_fit_uses(trained):
     tiny = RECIPES["tiny"]
     assert lr_schedule(tiny, 0) == tiny.lr
     assert lr_schedule(tiny, tiny.epochs - 1) == pytest.approx(COSINE_FLOOR * tiny.lr)
@@ -177,10 +238,11 @@ def test_lr_schedule_is_public_and_is_what_fit_uses(tmp_path):
     assert lr_schedule("paper", 99) == paper.LEARNING_RATE  # the paper's lr is constant
     with pytest.raises(ValueError, match="0 .. 4"):
         lr_schedule(five, 5)
-    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path, recipe=five, epochs=3,
-                  lr=1e-3, batch_size=4, progress=False)
-    three = Recipe(lr=1e-3, batch_size=4, epochs=3, cosine=True)
-    assert [h["lr"] for h in history] == [lr_schedule(three, e) for e in range(3)]
+    # the shared run: the tiny recipe (30 epochs, cosine) shortened to 4 epochs decays over 4
+    four = get_recipe("tiny", epochs=4, lr=1e-2, batch_size=8)
+    assert RECIPES["tiny"].cosine and RECIPES["tiny"].epochs > 4
+    assert [h["lr"] for h in trained[2]] == [lr_schedule(four, e) for e in range(4)]
+    assert trained[2][-1]["lr"] == pytest.approx(COSINE_FLOOR * 1e-2)
 
 
 def test_per_step_schedule_warms_up_then_follows_the_cosine_by_hand():
@@ -199,18 +261,40 @@ def test_per_step_schedule_warms_up_then_follows_the_cosine_by_hand():
     assert RECIPES["tiny_step"].per_step and RECIPES["tiny_step"].warmup_steps > 0
 
 
-def test_fit_sets_the_rate_every_step_and_reports_each_step(tmp_path):
+def test_fit_at_scale_sets_the_rate_every_step_reports_each_step_and_resumes_exactly(
+        tmp_path):
     # 8 samples in batches of 4: 2 steps per epoch, 6 steps in 3 epochs
-    r = Recipe(lr=1e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
+    r = Recipe(lr=5e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
     steps = []
-    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path, recipe=r,
-                  progress=False, on_step=steps.append)
+    straight = small_model()
+    history = fit_at_scale(straight, toy_set(8), toy_set(4, 1), tmp_path / "a", recipe=r,
+                           progress=False, on_step=steps.append)
     assert [s["step"] for s in steps] == list(range(6))
     assert [s["epoch"] for s in steps] == [1, 1, 2, 2, 3, 3]
     assert [s["lr"] for s in steps] == [lr_at_step(r, i, 6) for i in range(6)]
-    assert steps[0]["lr"] == 5e-4 and steps[-1]["lr"] == pytest.approx(COSINE_FLOOR * 1e-3)
+    assert steps[0]["lr"] == 2.5e-3 and steps[-1]["lr"] == pytest.approx(COSINE_FLOOR * 5e-3)
     # the history's rate is the last step's of each epoch
     assert [h["lr"] for h in history] == [steps[1]["lr"], steps[3]["lr"], steps[5]["lr"]]
+
+    # interrupted after two epochs, then resumed: the same weights as the straight run
+    def stop_after_two(history):
+        if len(history) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        fit_at_scale(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r,
+                     progress=False, on_epoch=stop_after_two)
+    resumed = small_model(seed=99)
+    steps = []
+    fit_at_scale(resumed, toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r,
+                 progress=False, resume=True, on_step=steps.append)
+    assert [s["step"] for s in steps] == [4, 5]
+    same_weights(straight, resumed)
+    # the plain loop sets the rate once per epoch and says where the per-step one is
+    with pytest.raises(ValueError, match="per_step=True.*fit_at_scale"):
+        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "c", recipe=r,
+            progress=False)
+    assert not (tmp_path / "c").exists()
 
 
 def test_output_prior_starts_the_predictions_at_the_labels_occupancy(tmp_path):
@@ -260,28 +344,6 @@ def test_output_prior_p_starts_the_predictions_at_even_odds(tmp_path):
     assert type(numpy_p) is float and numpy_p == 0.25  # safe for weights_only checkpoints
 
 
-def test_a_per_step_run_resumed_after_an_interruption_is_exact(tmp_path):
-    r = Recipe(lr=5e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
-    straight = small_model()
-    fit(straight, toy_set(8), toy_set(4, 1), tmp_path / "a", recipe=r, progress=False)
-
-    def stop_after_two(history):
-        if len(history) == 2:
-            raise KeyboardInterrupt
-
-    with pytest.raises(KeyboardInterrupt):
-        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r,
-            progress=False, on_epoch=stop_after_two)
-    resumed = small_model(seed=99)
-    steps = []
-    fit(resumed, toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r, progress=False,
-        resume=True, on_step=steps.append)
-    assert [s["step"] for s in steps] == [4, 5]
-    for (name, a), b in zip(straight.state_dict().items(), resumed.state_dict().values(),
-                            strict=True):
-        assert torch.equal(a, b), name
-
-
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"batch_size": 0}, "batch_size must be a whole number >= 1, got 0"),
     ({"batch_size": -2}, "batch_size .* got -2: pass a positive batch size"),
@@ -293,25 +355,36 @@ def test_a_per_step_run_resumed_after_an_interruption_is_exact(tmp_path):
      "unknown recipe 'bogus'; choose one of \\['paper', 'tiny', 'tiny_step', 'tiny_step_even'\\]"),
     ({"lrr": 1e-3}, "unknown recipe fields \\['lrr'\\]"),
     ({"loss": "dice"}, "unknown loss 'dice'; choose one of bce, focal, bce_dice"),
-    ({"precision": "fp16"}, "precision must be one of fp32, bf16, got 'fp16'"),
+    ({"precision": "fp16", "scale": True}, "precision must be one of fp32, bf16, got 'fp16'"),
+    ({"loss": "dice", "scale": True}, "unknown loss 'dice'"),
+    ({"precision": "bf16"}, "fit has no option precision: .*fit_at_scale"),
+    ({"resume": True, "on_step": print}, "fit has no option on_step, resume: .*fit_at_scale"),
 ])
 def test_fit_rejects_bad_settings_before_writing_anything(tmp_path, kwargs, message):
     out = tmp_path / "run"
+    train = fit_at_scale if kwargs.pop("scale", False) else fit
     with pytest.raises(ValueError, match=message):
-        fit(small_model(), toy_set(4), toy_set(2), out, progress=False, **kwargs)
+        train(small_model(), toy_set(4), toy_set(2), out, progress=False, **kwargs)
     assert not out.exists()
 
 
-def test_fit_seed_makes_a_model_with_dropout_train_identically(tmp_path):
-    runs = []
-    for run, noise in enumerate((123, 456)):
+def test_fit_and_fit_at_scale_train_the_same_weights_from_the_seed_with_dropout(tmp_path):
+    runs = {}
+    for train, noise in ((fit, 123), (fit_at_scale, 456)):
         torch.manual_seed(noise)  # whatever the global generator held before
         model = small_model(dropout=0.5)
-        fit(model, toy_set(8), toy_set(4, 1), tmp_path / str(run), epochs=2, lr=1e-2,
-            batch_size=4, seed=7, progress=False)
-        runs.append(model.state_dict())
-    for name, weights in runs[0].items():
-        assert torch.equal(weights, runs[1][name]), name
+        history = train(model, toy_set(8), toy_set(4, 1), tmp_path / train.__name__, epochs=2,
+                        lr=1e-2, batch_size=4, seed=7, progress=False)
+        runs[train.__name__] = model, history
+    (plain, plain_history), (scaled, scaled_history) = runs["fit"], runs["fit_at_scale"]
+    same_weights(plain, scaled)  # fp32, no resume: bit for bit
+    assert without_seconds(plain_history) == without_seconds(scaled_history)
+    assert plain_history[-1]["train_loss"] < plain_history[0]["train_loss"]
+    for name in ("best.pt", "last.pt"):
+        a, b = (read_checkpoint(tmp_path / run / name) for run in runs)
+        assert all(torch.equal(a["model"][k], b["model"][k]) for k in a["model"])
+        assert a["epoch"] == b["epoch"]
+        assert without_seconds(a["history"]) == without_seconds(b["history"])
     # dropout does draw from the global generator: two training-mode passes differ
     model = small_model(dropout=0.5).train()
     x = toy_set(2).frames.float()
@@ -351,34 +424,31 @@ def test_predict_moves_the_model_back_to_its_device():
 
 
 def test_fit_stores_the_data_config_and_resume_checks_it(tmp_path):
-    data_config = {"frame_size": SHAPE[1], "n_frames": SHAPE[0], "dt_us": paper.DT_US}
+    # an explicit data_config is stored in both checkpoints (the shared run's, checked in
+    # test_fit_learns_a_toy_task_and_writes_files); without one, the training set's own
     kwargs = dict(lr=1e-2, batch_size=4, progress=False)
-    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=1,
-        data_config=data_config, **kwargs)
-    for name in ("last.pt", "best.pt"):
-        assert read_checkpoint(tmp_path / "a" / name)["data_config"] == data_config
-    # without data_config, the training set's own config is used
     train_set = toy_set(8)
-    train_set.config = {**data_config, "windows": "paper"}
+    train_set.config = {**DATA_CONFIG, "windows": "paper"}
     fit(small_model(), train_set, toy_set(4, 1), tmp_path / "b", epochs=1, **kwargs)
     assert read_checkpoint(tmp_path / "b" / "last.pt")["data_config"] == train_set.config
     # resuming on data whose frames were made differently is refused, naming both values
     with pytest.raises(CheckpointError, match="windows is 'paper' in .*last.pt but 'fixed'"):
-        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2, resume=True,
-            data_config=data_config, **kwargs)
+        fit_at_scale(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2,
+                     resume=True, data_config=DATA_CONFIG, **kwargs)
 
 
-def test_resume_refuses_another_model_and_a_slimmed_checkpoint(tmp_path):
-    kwargs = dict(lr=1e-2, batch_size=4, progress=False)
-    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path, epochs=1, **kwargs)
+def test_resume_refuses_another_model_and_a_slimmed_checkpoint(trained, tmp_path):
+    out = trained[0]
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    kwargs = dict(TRAINED, epochs=5, resume=True, data_config=DATA_CONFIG)
     other = small_model(bottleneck_features=16)
     with pytest.raises(ValueError, match="different model .*bottleneck_features: 32 in "
                                          "last.pt, 16 given"):
-        fit(other, toy_set(8), toy_set(4, 1), tmp_path, epochs=2, resume=True, **kwargs)
-    slim_checkpoint(tmp_path / "last.pt", tmp_path / "slim" / "last.pt")
+        fit_at_scale(other, toy_set(), toy_set(8, 1), out, **kwargs)
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before  # untouched
+    slim_checkpoint(out / "last.pt", tmp_path / "slim" / "last.pt")
     with pytest.raises(CheckpointError, match="no \\['optimizer', 'torch_rng'\\]"):
-        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "slim", epochs=2,
-            resume=True, **kwargs)
+        fit_at_scale(small_model(), toy_set(), toy_set(8, 1), tmp_path / "slim", **kwargs)
 
 
 # ----------------------------------------------------------------------------- issue 12
@@ -395,10 +465,9 @@ def two_channel_set(n=16, seed=0) -> TensorSet:
 
 
 @pytest.mark.parametrize("loss", ["focal", "bce_dice"])
-def test_fit_with_another_loss_trains_records_and_validates_with_it(tmp_path, loss):
+def test_fit_with_another_loss_trains_records_and_validates_with_it(loss_runs, loss):
     val = toy_set(8, seed=1)
-    history = fit(small_model(), toy_set(16), val, tmp_path, epochs=2, lr=1e-2,
-                  batch_size=8, loss=loss, progress=False)
+    tmp_path, history = loss_runs(loss)
     assert [h["epoch"] for h in history] == [1, 2]
     assert all(math.isfinite(h["train_loss"]) and math.isfinite(h["val_loss"])
                for h in history)
@@ -443,29 +512,29 @@ def test_fit_refuses_frames_whose_channels_do_not_fit_the_model(tmp_path):
     assert not out.exists()
 
 
-def test_resume_refuses_another_loss_and_reads_older_checkpoints(tmp_path):
-    kwargs = dict(lr=1e-2, batch_size=4, progress=False)
-    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=1, loss="focal",
-        **kwargs)
+def test_resume_refuses_another_loss_and_reads_older_checkpoints(loss_runs, trained,
+                                                                tmp_path):
+    kwargs = dict(lr=1e-2, batch_size=8, progress=False, resume=True)
+    shutil.copytree(loss_runs("focal")[0], tmp_path / "a")  # 2 epochs with the focal loss
     with pytest.raises(ValueError, match="trained with loss='focal', but loss='bce' was given"):
-        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=2, resume=True,
-            **kwargs)
-    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "a", epochs=2,
-                  resume=True, loss="focal", **kwargs)
-    assert len(history) == 2
+        fit_at_scale(small_model(), toy_set(16), toy_set(8, 1), tmp_path / "a", epochs=3,
+                     **kwargs)
+    history = fit_at_scale(small_model(), toy_set(16), toy_set(8, 1), tmp_path / "a",
+                           epochs=3, loss="focal", **kwargs)
+    assert len(history) == 3
     # a last.pt written before losses and in_channels were recorded: BCE, one channel
-    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=1, **kwargs)
+    shutil.copytree(trained[0], tmp_path / "b")  # the shared run: 4 epochs with BCE
     old = read_checkpoint(tmp_path / "b" / "last.pt")
     del old["loss"]
     for key in ("in_channels", "gru_hidden", "gru_pool"):
         del old["config"][key]
     torch.save(old, tmp_path / "b" / "last.pt")
     with pytest.raises(ValueError, match="trained with loss='bce', but loss='bce_dice'"):
-        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2, resume=True,
-            loss="bce_dice", **kwargs)
-    history = fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", epochs=2,
-                  resume=True, **kwargs)
-    assert [h["epoch"] for h in history] == [1, 2]
+        fit_at_scale(small_model(), toy_set(), toy_set(8, 1), tmp_path / "b", epochs=5,
+                     loss="bce_dice", **kwargs)
+    history = fit_at_scale(small_model(), toy_set(), toy_set(8, 1), tmp_path / "b", epochs=5,
+                           data_config=DATA_CONFIG, **kwargs)
+    assert [h["epoch"] for h in history] == [1, 2, 3, 4, 5]
 
 
 @pytest.mark.parametrize("preset", ["tiny", "tiny2d"])
@@ -483,8 +552,9 @@ def test_channels_last_keeps_the_values_and_trains_the_same(tmp_path, preset):
     assert all(torch.equal(before[k], v) for k, v in model.state_dict().items())
     runs = {}
     for flag in (False, True):
-        runs[flag] = fit(make(), toy_set(16), toy_set(8, 1), tmp_path / str(flag),
-                         epochs=2, lr=1e-2, batch_size=8, channels_last=flag, progress=False)
+        runs[flag] = fit_at_scale(make(), toy_set(16), toy_set(8, 1), tmp_path / str(flag),
+                                  epochs=2, lr=1e-2, batch_size=8, channels_last=flag,
+                                  progress=False)
     for a, b in zip(runs[False], runs[True], strict=True):
         assert b["train_loss"] == pytest.approx(a["train_loss"], rel=1e-3)
         assert b["val_iou"] == pytest.approx(a["val_iou"], abs=1e-3)
@@ -520,8 +590,9 @@ def _has_amx() -> bool:
                     reason="bf16 learning is checked only where it was found repeatable (AMX)")
 def test_bf16_training_learns_and_keeps_float32_weights(tmp_path):
     model = small_model(input_shape=BF16_SHAPE, stem_pool=False)
-    history = fit(model, toy_set(shape=BF16_SHAPE), toy_set(8, seed=1, shape=BF16_SHAPE),
-                  tmp_path, epochs=4, lr=1e-2, batch_size=8, precision="bf16", progress=False)
+    history = fit_at_scale(model, toy_set(shape=BF16_SHAPE),
+                           toy_set(8, seed=1, shape=BF16_SHAPE), tmp_path, epochs=4, lr=1e-2,
+                           batch_size=8, precision="bf16", progress=False)
     assert history[-1]["train_loss"] < 0.5 * history[0]["train_loss"]
     assert history[-1]["val_iou"] > history[0]["val_iou"] + 0.15
     last = read_checkpoint(tmp_path / "last.pt")
@@ -532,14 +603,14 @@ def test_bf16_training_learns_and_keeps_float32_weights(tmp_path):
 
 def test_a_non_finite_bf16_gradient_stops_training_and_names_the_parameter(tmp_path,
                                                                           monkeypatch):
-    monkeypatch.setattr("e2vlib.train.loop.bf16_is_fast", lambda device="cpu": True)
+    monkeypatch.setattr("e2vlib.scale.training.bf16_is_fast", lambda device="cpu": True)
     model = small_model()
     name, weight = next((n, p) for n, p in model.named_parameters() if n.endswith("weight"))
     weight.register_hook(lambda grad: grad * float("nan"))
     with pytest.raises(FloatingPointError, match=rf"non-finite gradient for {name} \(epoch 1, "
                        r"step 1\).*precision='fp32'"):
-        fit(model, toy_set(), toy_set(8, seed=1), tmp_path, epochs=1, lr=1e-2, batch_size=8,
-            precision="bf16", progress=False)
+        fit_at_scale(model, toy_set(), toy_set(8, seed=1), tmp_path, epochs=1, lr=1e-2,
+                     batch_size=8, precision="bf16", progress=False)
     assert all(torch.isfinite(p).all() for p in model.parameters()), "no step was taken"
 
 
@@ -547,5 +618,5 @@ def test_bf16_is_refused_where_it_is_not_fast(tmp_path, monkeypatch):
     monkeypatch.setattr(torch.ops.mkldnn, "_is_mkldnn_bf16_supported", lambda: False)
     assert not bf16_is_fast("cpu")
     with pytest.raises(ValueError, match="no fast bfloat16"):
-        fit(small_model(), toy_set(4), toy_set(2), tmp_path, device="cpu", precision="bf16",
-            progress=False)
+        fit_at_scale(small_model(), toy_set(4), toy_set(2), tmp_path, device="cpu",
+                     precision="bf16", progress=False)

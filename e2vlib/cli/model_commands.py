@@ -24,7 +24,7 @@ def resume_checks(last: Path, ckpt: dict, preset: str | None) -> None:
     Examples
     --------
     >>> from e2vlib.model import PRESETS
-    >>> from e2vlib.train import RESUME_KEYS
+    >>> from e2vlib.scale.training import RESUME_KEYS
     >>> last = Path("run/last.pt")
     >>> resume_checks(last, {"config": PRESETS["tiny"].to_dict()}, None)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
@@ -42,7 +42,7 @@ holds preset tiny (different encoder); ...
     from dataclasses import replace
 
     from e2vlib.model import PRESETS, E2VConfig
-    from e2vlib.train import resume_problems
+    from e2vlib.scale.training import resume_problems
 
     missing, _ = resume_problems(ckpt)
     if missing:
@@ -67,7 +67,9 @@ holds preset tiny (different encoder); ...
 
 
 def run_train(args: argparse.Namespace) -> int:
-    """``train``: check everything before the work, then :func:`e2vlib.train.fit`.
+    """``train``: check everything before the work, then
+    :func:`e2vlib.scale.training.fit_at_scale` (``fit`` with ``--resume``, ``--precision``,
+    ``--channels-last`` and torchrun).
 
     Examples
     --------
@@ -83,7 +85,8 @@ def run_train(args: argparse.Namespace) -> int:
     from e2vlib.data.checks import read_config
     from e2vlib.model import PRESETS, build_e2v, model_from_checkpoint, read_checkpoint
     from e2vlib.paper import IOU_THRESHOLD
-    from e2vlib.train import RECIPES, fit, get_recipe, init_distributed_from_env
+    from e2vlib.scale.training import fit_at_scale, init_distributed_from_env
+    from e2vlib.train import RECIPES, get_recipe
 
     if args.recipe not in RECIPES:
         raise UsageError(f"--recipe {args.recipe!r} is not a training recipe; choose one of "
@@ -140,9 +143,10 @@ def run_train(args: argparse.Namespace) -> int:
     else:
         model = build_e2v(args.preset or "tiny", seed=args.seed,
                           input_shape=train_set.input_shape)
-    history = fit(model, train_set, val_set, out, recipe=recipe, device=args.device,
-                  seed=args.seed, resume=args.resume, metadata=metadata, loss=args.loss,
-                  precision=args.precision, channels_last=args.channels_last)
+    history = fit_at_scale(model, train_set, val_set, out, recipe=recipe, device=args.device,
+                           seed=args.seed, resume=args.resume, metadata=metadata,
+                           loss=args.loss, precision=args.precision,
+                           channels_last=args.channels_last)
     if history:
         best = max(history, key=lambda h: h["val_iou"])
         print(f"best validation IoU@{IOU_THRESHOLD} {best['val_iou']:.3f} at epoch "
@@ -170,9 +174,9 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
     from e2vlib.data import E2VDataset
     from e2vlib.files import atomic_path
+    from e2vlib.metrics import format_table
     from e2vlib.model import model_from_checkpoint, read_checkpoint
     from e2vlib.train import evaluate
-    from e2vlib.metrics import format_table
 
     json_path = output_file(args.json, "--json", "results.json") if args.json else None
     check_device(args.device)

@@ -1,9 +1,9 @@
 """The command line's parser: every subcommand, its flags and their help.
 
 The choices come from the library's own tuples (:data:`e2vlib.data.SPLITS`,
-:data:`e2vlib.frames.WINDOWS`, :data:`e2vlib.simulate.NOISE_LEVELS`,
+:data:`e2vlib.frames.WINDOWS`, :data:`e2vlib.noise.NOISE_LEVELS`,
 :data:`e2vlib.render.ANTI_ALIASING`, :data:`e2vlib.losses.LOSSES`,
-:data:`e2vlib.train.PRECISIONS`; the model presets and training recipes named in the help
+:data:`e2vlib.scale.training.PRECISIONS`; the model presets and training recipes named in the help
 from :data:`e2vlib.model.PRESETS` and :data:`e2vlib.train.RECIPES`), so a new choice in the
 library is one on the command line too. Each subcommand runs a function of
 :mod:`~e2vlib.cli.data_commands`, :mod:`~e2vlib.cli.model_commands` or
@@ -54,9 +54,10 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
     from e2vlib.losses import LOSSES
     from e2vlib.metrics import MAX_SURFACE_POINTS
     from e2vlib.model import PRESETS
+    from e2vlib.noise import NOISE_LEVELS
     from e2vlib.render import ANTI_ALIASING  # numpy only; pyvista loads when rendering
-    from e2vlib.simulate import NOISE_LEVELS
-    from e2vlib.train import PRECISIONS, RECIPES
+    from e2vlib.scale.training import PRECISIONS
+    from e2vlib.train import RECIPES
 
     parser = Parser(
         prog="python -m e2vlib",
@@ -94,7 +95,7 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
                    help="also store each sample's grey video at the event frames' times "
                    "(OUT/grey/<id>.npz, uint8 frames of --frame-size px)")
     p.add_argument("--noise", choices=tuple(NOISE_LEVELS), default="clean",
-                   help="sensor noise of the simulated events (e2vlib.simulate.NOISE_LEVELS; "
+                   help="sensor noise of the simulated events (e2vlib.noise.NOISE_LEVELS; "
                    "default clean, as data_small)")
     p.add_argument("--splits", nargs="+", choices=SPLITS, default=list(SPLITS),
                    help="build only these splits (same objects and splits as the full build)")

@@ -25,7 +25,8 @@ def run_experiment(args: argparse.Namespace) -> int:
     ...
     e2vlib.cli.errors.UsageError: unknown study 'bogus'; choose one of representation, time, ...
     """
-    from e2vlib.experiments import DEFAULT_OUT, STUDIES, format_summary, run_study, summarize
+    from e2vlib.experiments import DEFAULT_OUT, STUDIES, run_study, summarize
+    from e2vlib.experiments.summary import format_study_table
 
     if args.study == "geometry":
         return run_geometry_study(args)
@@ -45,7 +46,7 @@ def run_experiment(args: argparse.Namespace) -> int:
                      quick=args.quick, reuse=not args.no_reuse,
                      checkpoints=args.keep_checkpoints)
     print(f"{path}:")
-    print(format_summary(summarize(path)))
+    print(format_study_table(summarize(path)))
     return 0
 
 

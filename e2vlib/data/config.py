@@ -7,8 +7,10 @@ and checks a dataset's config.json. Introduced in notebooks/04_building_the_data
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -53,7 +55,7 @@ class BuildConfig:
     :func:`e2vlib.frames.accumulate`); ``grey_video``: also store every sample's grey
     video at the event frames' times (:func:`grey_frame_indices`), in ROOT/grey/;
     ``noise``: the simulator's sensor noise, a key of
-    :data:`e2vlib.simulate.NOISE_LEVELS` (``"clean"``: none, what data_small uses);
+    :data:`e2vlib.noise.NOISE_LEVELS` (``"clean"``: none, what data_small uses);
     ``splits``: build only these splits (the plan, and so every sample's split and seed, is
     the full build's); ``anti_aliasing``: the renderer's edge smoothing, a mode of
     :data:`e2vlib.render.ANTI_ALIASING` (``"ssaa"``, what data_small uses; ``"none"`` renders
@@ -87,8 +89,8 @@ class BuildConfig:
     anti_aliasing: str = "ssaa"
 
     def __post_init__(self):
+        from e2vlib.noise import NOISE_LEVELS
         from e2vlib.render import ANTI_ALIASING
-        from e2vlib.simulate import NOISE_LEVELS
 
         object.__setattr__(self, "categories", tuple(self.categories))
         object.__setattr__(self, "splits", tuple(self.splits))
@@ -171,9 +173,23 @@ class BuildConfig:
         return cls(**d)
 
 
-def frame_settings(config: dict | None) -> dict | None:
-    """The frame-making fields of a dataset config dict (``n_frames``, ``dt_us``,
-    ``windows``, ``frame_size``), with the defaults of older configs filled in.
+FRAME_FIELDS = ("n_frames", "dt_us", "windows", "frame_size")
+"""Build settings that decide how events become the model's input frames."""
+
+LEGACY_WINDOWS = "fixed"
+"""Frame grouping of configs written before ``windows`` was recorded: they all used the
+fixed clock windows of ``frames.accumulate(..., windows="fixed")``."""
+
+
+def frame_settings(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The :data:`FRAME_FIELDS` of a build config dict, with the defaults of older configs.
+
+    A missing ``n_frames`` / ``dt_us`` means the paper's :data:`e2vlib.paper.N_EVENT_FRAMES`
+    frames of :data:`e2vlib.paper.DT_US` microseconds, a missing ``windows``
+    :data:`LEGACY_WINDOWS`; a missing (or None) ``frame_size`` stays None: unknown. Any other
+    value must be what a build writes: ``n_frames``, ``dt_us``, ``frame_size`` whole
+    numbers >= 1 (not strings such as ``"20"``), ``windows`` one of
+    :data:`e2vlib.frames.WINDOWS`; else ValueError naming the field and the fix.
 
     Examples
     --------
@@ -181,15 +197,29 @@ def frame_settings(config: dict | None) -> dict | None:
     {'n_frames': 100, 'dt_us': 5000, 'windows': 'fixed', 'frame_size': 64}
     >>> frame_settings({"n_frames": 20, "dt_us": 25000})["frame_size"] is None
     True
+    >>> frame_settings({"n_frames": "20"})
+    Traceback (most recent call last):
+    ...
+    ValueError: n_frames must be a whole number >= 1, got '20' (str); write it as a number, \
+or leave it out for the default 100
     """
-    if config is None:
-        return None
-    return {
-        "n_frames": int(config.get("n_frames", paper.N_EVENT_FRAMES)),
-        "dt_us": int(config.get("dt_us", paper.DT_US)),
-        "windows": str(config.get("windows", "fixed")),
-        "frame_size": int(config["frame_size"]) if "frame_size" in config else None,
-    }
+    defaults = {"n_frames": paper.N_EVENT_FRAMES, "dt_us": paper.DT_US,
+                "windows": LEGACY_WINDOWS, "frame_size": None}
+    settings = {key: config.get(key, default) for key, default in defaults.items()}
+    for key in ("n_frames", "dt_us", "frame_size"):
+        value = settings[key]
+        if value is None and key == "frame_size":
+            continue
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+            leave_out = "if unknown" if key == "frame_size" else f"for the default {defaults[key]}"
+            raise ValueError(f"{key} must be a whole number >= 1, got {value!r} "
+                             f"({type(value).__name__}); write it as a number, or leave it "
+                             f"out {leave_out}")
+        settings[key] = int(value)
+    if settings["windows"] not in WINDOWS:
+        raise ValueError(f"windows must be one of {', '.join(WINDOWS)}, got "
+                         f"{settings['windows']!r}; or leave it out for {LEGACY_WINDOWS!r}")
+    return settings
 
 
 def dataset_config(root: str | os.PathLike) -> dict:

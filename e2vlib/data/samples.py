@@ -69,9 +69,9 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     >>> bool(sample.frames.max() == 1 and len(sample.events) > 0 and sample.voxels.any())
     True
     """
+    from e2vlib.noise import NOISE_LEVELS, simulate_noisy_events
     from e2vlib.render import render_orbit
     from e2vlib.shapes import normalize_mesh
-    from e2vlib.simulate import NOISE_LEVELS, simulate_events
     from e2vlib.voxels import voxelize
 
     mesh = normalize_mesh(mesh)
@@ -79,9 +79,9 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
     video, t_us = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
                                resolution=config.resolution, oversample=config.oversample,
                                anti_aliasing=config.anti_aliasing)
-    events = simulate_events(video, t_us, contrast_pos=config.contrast,
-                             contrast_neg=config.contrast, seed=seed,
-                             **NOISE_LEVELS[config.noise])
+    events = simulate_noisy_events(video, t_us, contrast_pos=config.contrast,
+                                   contrast_neg=config.contrast, seed=seed,
+                                   **NOISE_LEVELS[config.noise])
     sensor_size = (config.resolution, config.resolution)
     frames = orbit_input(events, sensor_size, config.frame_size, n_frames=config.n_frames,
                          dt_us=config.dt_us, windows=config.windows)

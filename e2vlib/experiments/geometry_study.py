@@ -100,9 +100,9 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
     from tqdm.auto import tqdm
 
     from e2vlib.data import BuildConfig, E2VDataset, read_manifest
+    from e2vlib.inputs import preload
     from e2vlib.model import load_checkpoint
     from e2vlib.train import predict
-    from e2vlib.inputs import preload
 
     data, events = Path(data), Path(events)
     config = BuildConfig.from_dict(json.loads((data / "config.json").read_text()))
@@ -162,10 +162,10 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str],
     from e2vlib.data import E2VDataset
     from e2vlib.experiments.real_study import checkpoint_predictions
     from e2vlib.geometry import score_occupancy
+    from e2vlib.inputs import preload
     from e2vlib.metrics import iou
     from e2vlib.model import DIGEST_KEY
     from e2vlib.train import category_mean_shapes
-    from e2vlib.inputs import preload
 
     path, data = Path(path), Path(data)
     results = json.loads(path.read_text())

@@ -153,13 +153,15 @@ class Protocol:
                     and stored["frame_size"] % self.frame_size == 0)
 
     def input_key(self, split: str) -> str:
-        """A short digest of what the inputs of ``split`` depend on (the in-memory cache key)."""
+        """A short digest of what the inputs of ``split`` depend on (the in-memory cache key;
+        ``train_scale`` and ``extra`` change the training split only)."""
+        train = split == "train"
         text = json.dumps({
             "representation": self.representation, "n_frames": self.n_frames,
             "dt_us": self.dt_us, "frame_size": self.frame_size, "split": split,
             "data": self.data, "per_category": self.per_category, "noise": self.noise_level,
-            "events": str(self.events_root),
-            "train_scale": self.scale if split == "train" else 1, "extra": self.extra})
+            "events": str(self.events_root), "train_scale": self.scale if train else 1,
+            "extra": self.extra if train else None})
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def train_counts(self) -> dict[str, int]:

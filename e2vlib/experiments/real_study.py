@@ -41,7 +41,8 @@ BASELINES = ("visual_hull", "mean_shape", "category_oracle")
 """The methods scored beside the checkpoints, in table order."""
 DEFAULT_CHECKPOINTS = {"tiny": "data_small/checkpoints/tiny.pt"}
 COMMAND = "python -m e2vlib.experiments.real_study --checkpoint tiny=data_small/checkpoints/tiny.pt"
-"""The recorded command (after the build in :data:`e2vlib.experiments.real_meshes.BUILD_COMMAND`)."""
+"""The recorded command (after the build in
+:data:`e2vlib.experiments.real_meshes.BUILD_COMMAND`)."""
 QUESTION = ("The learned models train on procedural stand-ins of the 13 categories. On real "
             "third-party models of the same categories (Sweet Home 3D's furniture libraries), "
             "made into samples by the same pipeline, how well do they reconstruct, next to a "
@@ -132,9 +133,9 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         resolve,
     )
     from e2vlib.geometry import score_occupancy
+    from e2vlib.inputs import preload
     from e2vlib.metrics import iou
     from e2vlib.train import category_mean_shapes
-    from e2vlib.inputs import preload
 
     checkpoints = dict(checkpoints or DEFAULT_CHECKPOINTS)
     clash = sorted(set(checkpoints) & set(BASELINES))

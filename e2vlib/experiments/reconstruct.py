@@ -6,7 +6,8 @@ own voxels to compare with), an event stream (a file or an array) becomes the mo
 input by :func:`e2vlib.inputs.recording_input` (windows from its first event, a
 centre crop of any sensor); either way the frames are made with the settings of the data
 the model was trained on (:func:`checkpoint_build_config`). The answer is a
-:class:`Reconstruction`: the probabilities ``(32, 32, 32)`` float32, the frames that went in, and the mesh's voxels.
+:class:`Reconstruction`: the probabilities ``(32, 32, 32)`` float32, the frames that went
+in, and the mesh's voxels.
 
 Introduced in notebooks/07_evaluation.ipynb.
 """

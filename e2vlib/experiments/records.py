@@ -33,7 +33,12 @@ import numpy as np
 from e2vlib.experiments.provenance import REPO
 from e2vlib.experiments.runner import command_line
 from e2vlib.experiments.studies import STUDIES
-from e2vlib.experiments.summary import compare, format_summary, is_real_difference, summarize
+from e2vlib.experiments.summary import (
+    compare,
+    format_study_table,
+    is_real_difference,
+    summarize,
+)
 
 RESULTS_DIR = REPO / "experiments" / "results"
 """Where the recorded studies live (``experiments/results/STUDY.json``)."""
@@ -107,7 +112,7 @@ def _join(words: list[str]) -> str:
 def finding(rows: list[dict], baseline: str, metric: str = "iou@0.3") -> str:
     """One sentence: which configs differ from ``baseline`` beyond the seed spread, with means.
 
-    ``rows`` come from :func:`~e2vlib.summarize`; the rule is
+    ``rows`` come from :func:`~e2vlib.experiments.summarize`; the rule is
     :func:`is_real_difference`.
     """
     base = next((r for r in rows if r["config"] == baseline), None)
@@ -146,13 +151,13 @@ def report(results: dict, baseline: str, metric: str = "iou@0.3",
            out: Callable[[str], object] = print) -> list[dict]:
     """Print a study's table, each config against ``baseline``, and its cost; return the rows.
 
-    The table is :func:`~e2vlib.format_summary`; each comparison gives the
+    The table is :func:`~e2vlib.experiments.format_study_table`; each comparison gives the
     difference, Welch's p-value and the verdict of :func:`is_real_difference`; the last line
     says how many runs, their minutes of training and the CPU they were recorded on, then the
     command (or every command, oldest first) that recorded them.
     """
     rows = summarize(results, metric)
-    out(format_summary(rows, metric))
+    out(format_study_table(rows, metric))
     for d in compare(rows, baseline):
         verdict = "beyond the seed spread" if d["clear"] else "within the seed spread"
         out(f"  {d['config']:13s} {d['difference']:+.3f} vs {baseline} "

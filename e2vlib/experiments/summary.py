@@ -46,7 +46,7 @@ def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> lis
     return list(rows.values())
 
 
-def format_summary(rows: list[dict], metric: str = "iou@0.3") -> str:
+def format_study_table(rows: list[dict], metric: str = "iou@0.3") -> str:
     """A markdown table of :func:`summarize` rows."""
     lines = [f"| config | n | {metric} mean ± std | 95 % interval |", "| --- | --- | --- | --- |"]
     for row in rows:

@@ -31,7 +31,7 @@ from typing import Any
 
 import torch
 
-from e2vlib import paper
+from e2vlib.data.config import FRAME_FIELDS, frame_settings
 from e2vlib.files import atomic_path
 from e2vlib.model.integrity import DIGEST_KEY, CheckpointError, verify_weights, weights_digest
 from e2vlib.model.networks import E2V, E2VConfig
@@ -41,13 +41,6 @@ DATA_CONFIG_KEY = "data_config"
 
 RESERVED_KEYS = ("config", "model", DIGEST_KEY, DATA_CONFIG_KEY)
 """Keys :func:`save_checkpoint` writes itself; ``extra`` may not use them."""
-
-FRAME_FIELDS = ("n_frames", "dt_us", "windows", "frame_size")
-"""Build settings that decide how events become the model's input frames."""
-
-LEGACY_WINDOWS = "fixed"
-"""Frame grouping of configs written before ``windows`` was recorded: they all used the
-fixed clock windows of ``frames.accumulate(..., windows="fixed")``."""
 
 SLIM_KEEP = ("history", "metadata", "recipe", "epoch", "best_iou", "seed", "loss")
 """Entries :func:`slim_checkpoint` copies by default (besides config, weights, data config)."""
@@ -294,22 +287,12 @@ def checkpoint_data_config(ckpt: Mapping[str, Any]) -> dict | None:
     return dict(value) if isinstance(value, Mapping) else None
 
 
-def frame_settings(config: Mapping[str, Any]) -> dict[str, Any]:
-    """The :data:`FRAME_FIELDS` of a build config, with the defaults of older configs.
-
-    A missing ``n_frames``/``dt_us`` means the paper's :data:`e2vlib.paper.N_EVENT_FRAMES`
-    frames of :data:`e2vlib.paper.DT_US`; a missing ``windows`` means ``"fixed"``; a
-    missing ``frame_size`` stays None (unknown).
-
-    Examples
-    --------
-    >>> frame_settings({"frame_size": 64})
-    {'n_frames': 100, 'dt_us': 5000, 'windows': 'fixed', 'frame_size': 64}
-    """
-    defaults = {"n_frames": paper.N_EVENT_FRAMES, "dt_us": paper.DT_US,
-                "windows": LEGACY_WINDOWS, "frame_size": None}
-    return {key: default if config.get(key) is None else config[key]
-            for key, default in defaults.items()}
+def _frame_settings_of(config: Any, what: str, name: object) -> dict[str, Any]:
+    """:func:`frame_settings` of a config dict (or BuildConfig); ValueError names ``name``."""
+    try:
+        return frame_settings(_as_config_dict(config, what))
+    except ValueError as err:
+        raise ValueError(f"the data config of {name}: {err}") from None
 
 
 def check_frames_match(ckpt_data_config: Mapping[str, Any] | None,
@@ -319,7 +302,8 @@ def check_frames_match(ckpt_data_config: Mapping[str, Any] | None,
     """Raise :class:`CheckpointError` if a dataset's frames differ from a checkpoint's.
 
     Compares the frame-making settings (:data:`FRAME_FIELDS`: ``n_frames``, ``dt_us``,
-    ``windows``, ``frame_size``; defaults as :func:`frame_settings`) of the config the
+    ``windows``, ``frame_size``; defaults as :func:`e2vlib.data.config.frame_settings`,
+    which also refuses a malformed value with a ValueError) of the config the
     checkpoint was trained on (:func:`checkpoint_data_config`) and of the dataset. A
     model only works on frames made the way it was trained on. No check when either
     config is None; a ``frame_size`` known on one side only is not compared. The message
@@ -337,8 +321,8 @@ def check_frames_match(ckpt_data_config: Mapping[str, Any] | None,
     """
     if ckpt_data_config is None or dataset_config is None:
         return
-    ours = frame_settings(_as_config_dict(ckpt_data_config, "ckpt_data_config"))
-    theirs = frame_settings(_as_config_dict(dataset_config, "dataset_config"))
+    ours = _frame_settings_of(ckpt_data_config, "ckpt_data_config", checkpoint_name)
+    theirs = _frame_settings_of(dataset_config, "dataset_config", dataset_name)
     differ = [key for key in FRAME_FIELDS
               if ours[key] is not None and theirs[key] is not None and ours[key] != theirs[key]]
     if differ:

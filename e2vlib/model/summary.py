@@ -1,6 +1,6 @@
 """Size and memory of an E2V: parameters per part, stage-by-stage shapes, saved activations.
 
-:func:`summary` and :func:`activation_bytes` profile a meta-device twin of the model (shapes
+:func:`layer_table` and :func:`activation_bytes` profile a meta-device twin of the model (shapes
 only, nothing allocated), so even the 150 M parameter paper preset is inspected in about a
 second. Numbers are per training step: what autograd keeps for the backward pass.
 
@@ -54,7 +54,7 @@ def _stages(model: E2V) -> list[tuple[str, nn.Module]]:
     return stages
 
 
-def summary(model: E2V, batch_size: int = 1) -> list[dict[str, Any]]:
+def layer_table(model: E2V, batch_size: int = 1) -> list[dict[str, Any]]:
     """Stage-by-stage table of an E2V for a batch of ``batch_size`` inputs.
 
     One dict per stage, in forward order: ``name``, ``shape`` (output shape, batch axis
@@ -67,7 +67,7 @@ def summary(model: E2V, batch_size: int = 1) -> list[dict[str, Any]]:
     Examples
     --------
     >>> from e2vlib.model.networks import build_e2v
-    >>> rows = summary(build_e2v("tiny", input_shape=(16, 32, 32)))
+    >>> rows = layer_table(build_e2v("tiny", input_shape=(16, 32, 32)))
     >>> [row["name"] for row in rows][:3], len(rows)
     (['encoder.stem', 'encoder.layer1', 'encoder.layer2'], 14)
     >>> rows[-1]  # the head: 4 weights + 1 bias; it keeps its 4 x 32^3 float32 input
@@ -94,7 +94,7 @@ def activation_bytes(model: E2V, batch_size: int = 1) -> int:
     >>> one = activation_bytes(model)
     >>> one, activation_bytes(model, batch_size=2) == 2 * one
     (4390656, True)
-    >>> one == sum(row["saved_bytes"] for row in summary(model))
+    >>> one == sum(row["saved_bytes"] for row in layer_table(model))
     True
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
@@ -155,15 +155,15 @@ def _profile(model: E2V, batch_size: int) -> tuple[list[dict[str, Any]], int]:
     return list(rows.values()), sum(nbytes for _, nbytes in saved.values())
 
 
-def format_summary(rows: list[dict[str, Any]]) -> str:
-    """Render :func:`summary` rows as a fixed-width text table with a total line.
+def format_layer_table(rows: list[dict[str, Any]]) -> str:
+    """Render :func:`layer_table` rows as a fixed-width text table with a total line.
 
     Examples
     --------
     >>> rows = [{"name": "stem", "shape": (1, 8, 4, 8, 8), "params": 232,
     ...          "saved_bytes": 2**20}, {"name": "head", "shape": (1, 1, 32, 32, 32),
     ...          "params": 5, "saved_bytes": 2**19}]
-    >>> print(format_summary(rows))
+    >>> print(format_layer_table(rows))
     stage                output shape                        params  saved MiB
     stem                 (1, 8, 4, 8, 8)                        232        1.0
     head                 (1, 1, 32, 32, 32)                       5        0.5

@@ -108,7 +108,7 @@ def fit_at_scale(
     --------
     >>> import tempfile
     >>> from e2vlib.model import build_e2v
-    >>> from e2vlib.train import TensorSet
+    >>> from e2vlib.inputs import TensorSet
     >>> voxels = torch.zeros(4, 32, 32, 32, dtype=torch.bool); voxels[:, 8:24] = True
     >>> data = TensorSet(torch.zeros(4, 8, 16, 16, dtype=torch.uint8), voxels,
     ...                  ["chair"] * 4, ["a", "b", "c", "d"])

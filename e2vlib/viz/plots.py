@@ -19,7 +19,7 @@ from e2vlib.frames import accumulate
 from e2vlib.viz.style import OFF_COLOR, ON_COLOR, PROBABILITY_CMAP
 
 
-def _subsample(events: np.ndarray, max_events: int, seed: int = 0) -> np.ndarray:
+def subsample_events(events: np.ndarray, max_events: int, seed: int = 0) -> np.ndarray:
     """At most ``max_events`` events, picked uniformly at random, kept in time order."""
     if len(events) <= max_events:
         return events
@@ -55,7 +55,7 @@ def plot_events_3d(
     validate(events, (width, height))
     if ax is None:
         ax = plt.figure(figsize=(8, 6)).add_subplot(projection="3d")
-    shown = _subsample(events, max_events)
+    shown = subsample_events(events, max_events)
     t_ms = (shown["t"] - (events["t"][0] if len(events) else 0)) / 1e3
     for polarity, color, label in ((1, ON_COLOR, "ON (+1)"), (-1, OFF_COLOR, "OFF (-1)")):
         sel = shown["p"] == polarity

@@ -14,8 +14,8 @@ import numpy as np
 
 from e2vlib import paper
 from e2vlib.events import check_sensor_size, validate
-from e2vlib.orbit import VIEW_ANGLE_DEG, _video_frames, orbit_cameras
-from e2vlib.viz.plots import _subsample
+from e2vlib.orbit import VIEW_ANGLE_DEG, _video_frames, camera_axes, orbit_cameras
+from e2vlib.viz.plots import subsample_events
 from e2vlib.viz.scenes import new_plotter
 from e2vlib.viz.style import MESH_COLOR, OFF_COLOR, ON_COLOR
 
@@ -47,7 +47,7 @@ def event_cloud(events: np.ndarray, sensor_size: tuple[int, int], max_events: in
     validate(events, (width, height))
     if len(events) == 0:
         raise ValueError("no events to show; pass a non-empty event array")
-    shown = _subsample(events, max_events)
+    shown = subsample_events(events, max_events)
     t_ms = (shown["t"] - events["t"][0]) / 1e3
     span_ms = max(float(events["t"][-1] - events["t"][0]) / 1e3, 1e-3)
     scale = 2.0 * width / span_ms if t_scale is None else float(t_scale)
@@ -130,12 +130,7 @@ def camera_frustum(position, depth: float = 2.0, view_angle_deg: float | None = 
 
     angle = VIEW_ANGLE_DEG if view_angle_deg is None else float(view_angle_deg)
     position = np.asarray(position, dtype=np.float64).reshape(3)
-    forward = -position / np.linalg.norm(position)
-    right = np.cross(forward, (0.0, 0.0, 1.0))
-    if np.linalg.norm(right) < 1e-9:
-        raise ValueError("the camera must not sit on the z axis (its up direction is +z)")
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
+    forward, right, up = camera_axes(position)  # the render camera's axes
     half = depth * np.tan(np.radians(angle / 2))
     centre = position + depth * forward
     corners = np.array([centre + sx * half * right + sy * half * up
@@ -175,8 +170,6 @@ def view_orbit(mesh, n_video_frames: int = paper.N_VIDEO_FRAMES, fps: float = pa
     """
     import pyvista as pv
 
-    from e2vlib.render import to_polydata
-
     cams = orbit_cameras(_video_frames(n_video_frames, n_frames))
     n = len(cams)
     if not isinstance(every, (int, np.integer)) or isinstance(every, bool) or every < 1:
@@ -193,7 +186,7 @@ def view_orbit(mesh, n_video_frames: int = paper.N_VIDEO_FRAMES, fps: float = pa
     plotter.add_mesh(path, scalars="time [ms]", cmap="viridis", line_width=5,
                      scalar_bar_args={"position_x": 0.3, "position_y": 0.86, "width": 0.4,
                                       "color": "black", "fmt": "%.0f", "n_labels": 6})
-    plotter.add_mesh(to_polydata(mesh), color=MESH_COLOR)
+    plotter.add_mesh(pv.wrap(mesh), color=MESH_COLOR)
     shown = sorted({*range(0, n, every), n - 1})
     for i in shown:
         lines, base = camera_frustum(cams[i], depth=frustum_depth)

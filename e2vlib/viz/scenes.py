@@ -320,11 +320,11 @@ def view_mesh_voxels(mesh, voxels: np.ndarray, mesh_opacity: float = 0.55,
     (64, 64, 3)
     >>> plotter.close()
     """
-    from e2vlib.render import to_polydata
+    import pyvista as pv
 
     if not 0 < mesh_opacity <= 1:
         raise ValueError(f"mesh_opacity must be in (0, 1], got {mesh_opacity!r}")
-    poly = to_polydata(mesh)
+    poly = pv.wrap(mesh)
     shell = voxel_mesh(voxels, 0.5).extract_surface(algorithm=None)
     plotter = new_plotter(off_screen, window_size)
     plotter.add_mesh(_unit_cube_floor(), style="wireframe", color="#c8c8c8", line_width=1,
