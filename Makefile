@@ -25,14 +25,17 @@ lab: $(STAMP)
 # once in quick mode (tests/test_lessons.py: each exercise's check must fail on the student stub
 # and on a wrong answer in that same run), with few Hypothesis examples. Tests marked `slow`
 # (end-to-end training and CLI runs, long studies) wait for `make test-all`, which also draws
-# the full Hypothesis example counts.
+# the full Hypothesis example counts. PYTEST_ARGS passes more options (e.g. PYTEST_ARGS=-x).
 PYTEST := $(QUICK_ENV) $(PY) -m pytest
+PYTEST_ARGS ?=
 
 test: $(STAMP) lint imports
-	HYPOTHESIS_PROFILE=quick $(PYTEST) --doctest-modules e2vlib tests -m "not slow" --durations=25
+	HYPOTHESIS_PROFILE=quick $(PYTEST) --doctest-modules e2vlib tests -m "not slow" \
+	  --durations=25 $(PYTEST_ARGS)
 
 test-all: $(STAMP) lint imports
-	HYPOTHESIS_PROFILE=full $(PYTEST) --doctest-modules e2vlib tests --durations=25
+	HYPOTHESIS_PROFILE=full $(PYTEST) --doctest-modules e2vlib tests --durations=25 \
+	  $(PYTEST_ARGS)
 
 unit: $(STAMP)
 	HYPOTHESIS_PROFILE=quick $(PYTEST) --doctest-modules e2vlib tests -m "not slow" \

@@ -318,9 +318,11 @@ def orbit_camera_at(t_us: ArrayLike, n_video_frames: int = paper.N_VIDEO_FRAMES,
 def camera_axes(camera_position: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit axes ``(forward, right, up)`` of the render camera at ``camera_position`` (m).
 
-    The camera looks at the origin (``forward``), keeps +z up in the image: ``right`` is
-    ``forward x z`` and ``up`` is ``right x forward``. The renderer aims its camera with
-    these axes; :func:`project_points` and ``e2vlib.viz.camera_frustum`` use them too.
+    The camera looks at the origin (``forward``) and keeps +z up in the image: ``right`` is
+    ``forward x z`` and ``up`` is ``right x forward``. ``camera_position`` is ``(3,)`` or a
+    stack ``(..., 3)``; each axis has its shape. The renderer aims its camera with these
+    axes, :func:`project_points` projects with them and ``e2vlib.viz.camera_frustum`` draws
+    them.
 
     Examples
     --------
@@ -328,13 +330,15 @@ def camera_axes(camera_position: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.
     >>> (forward + 0.0).tolist(), (right + 0.0).tolist(), (up + 0.0).tolist()
     ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
     """
-    position = np.asarray(camera_position, dtype=np.float64).reshape(3)
-    forward = -position / np.linalg.norm(position)
+    position = np.asarray(camera_position, dtype=np.float64)
+    if position.shape[-1:] != (3,):
+        raise ValueError(f"camera_position must be (3,) or (..., 3), got shape {position.shape}")
+    forward = -position / np.linalg.norm(position, axis=-1, keepdims=True)
     right = np.cross(forward, (0.0, 0.0, 1.0))
-    norm = np.linalg.norm(right)
-    if not norm >= 1e-9:  # also NaN
+    norm = np.linalg.norm(right, axis=-1, keepdims=True)
+    if not np.all(norm >= 1e-9):  # also NaN
         raise ValueError("camera_position must not lie on the z axis (up direction is +z)")
-    right /= norm
+    right = right / norm
     return forward, right, np.cross(right, forward)
 
 

@@ -498,7 +498,7 @@ def test_the_choices_are_the_librarys_own_tuples():
     from e2vlib.model import PRESETS
     from e2vlib.noise import NOISE_LEVELS
     from e2vlib.render import ANTI_ALIASING
-    from e2vlib.scale.training import PRECISIONS
+    from e2vlib.scale.options import PRECISIONS
     from e2vlib.train import RECIPES
 
     commands = next(a for a in build_parser()._actions if a.dest == "command").choices

@@ -12,12 +12,12 @@ from e2vlib.experiments import (
     best_threshold,
     command_line,
     compare,
-    grey_input,
     load_split,
     run_study,
     summarize,
 )
 from e2vlib.experiments.protocol import Protocol, canonical_protocol
+from e2vlib.inputs import grey_input
 
 RECORD_KEYS = {"config", "params", "seed", "metrics", "best_epoch", "train_seconds", "device",
                "commit"}

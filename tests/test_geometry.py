@@ -10,7 +10,8 @@ from scipy import ndimage
 from e2vlib import geometry as G
 from e2vlib.events import make_events
 from e2vlib.metrics import iou
-from e2vlib.render import orbit_cameras, project_points, render_orbit
+from e2vlib.orbit import orbit_cameras, project_points
+from e2vlib.render import render_orbit
 from e2vlib.simulate import simulate_events
 from e2vlib.voxels import voxelize
 

@@ -14,13 +14,48 @@ import pytest
 from e2vlib import geometry, orbit, paper, render
 
 
-def test_render_and_geometry_reexport_the_orbit():
-    for name in ("orbit_cameras", "orbit_angles", "project_points", "pixel_motion_per_frame",
-                 "required_oversample", "VIEW_ANGLE_DEG", "FOCAL_LENGTH_MM", "SENSOR_SIZE_MM",
-                 "Z_TOP_M", "Z_BOTTOM_M", "RADIUS_END_M", "RADIUS_MID_M", "AZIMUTH_START_DEG"):
-        assert getattr(render, name) is getattr(orbit, name), name
+def test_the_orbit_has_one_home():
+    # render keeps orbit_cameras (its public name); the rest is read from e2vlib.orbit only
+    assert render.orbit_cameras is orbit.orbit_cameras
+    for name in ("orbit_angles", "project_points", "pixel_motion_per_frame",
+                 "required_oversample", "FOCAL_LENGTH_MM", "SENSOR_SIZE_MM", "Z_TOP_M",
+                 "Z_BOTTOM_M", "RADIUS_END_M", "RADIUS_MID_M", "AZIMUTH_START_DEG",
+                 "n_rendered", "_n_rendered", "to_polydata", "release_plotters",
+                 "headless_opengl_window"):
+        assert not hasattr(render, name), name
+    assert "VIEW_ANGLE_DEG" not in render.__all__  # render uses it; orbit exports it
     assert geometry.orbit_camera_at is orbit.orbit_camera_at
-    assert render._n_rendered(120, 3) == orbit.n_rendered(120, 3) == 358
+
+
+def test_camera_axes_are_orthonormal_and_keep_z_up():
+    cams = orbit.orbit_cameras(37)
+    forward, right, up = orbit.camera_axes(cams)  # a stack of cameras at once
+    assert forward.shape == right.shape == up.shape == (37, 3)
+    for a, b in ((forward, right), (forward, up), (right, up)):
+        np.testing.assert_allclose(np.sum(a * b, axis=1), 0.0, atol=1e-12)
+    for axis in (forward, right, up):
+        np.testing.assert_allclose(np.linalg.norm(axis, axis=1), 1.0)
+    np.testing.assert_allclose(forward, -cams / np.linalg.norm(cams, axis=1, keepdims=True))
+    assert np.all(right[:, 2] == 0) and np.all(up[:, 2] > 0)  # level right, +z up in the image
+    np.testing.assert_allclose(np.cross(right, up), -forward, atol=1e-12)  # right-handed
+    for i in (0, 18, 36):  # one camera at a time gives the same axes
+        for stacked, single in zip((forward, right, up), orbit.camera_axes(cams[i]),
+                                   strict=True):
+            np.testing.assert_array_equal(single, stacked[i])
+    with pytest.raises(ValueError, match="z axis"):
+        orbit.camera_axes([0.0, 0.0, 5.0])
+
+
+def test_project_points_uses_the_camera_axes():
+    cam = orbit.orbit_cameras(5)[1]
+    forward, right, up = orbit.camera_axes(cam)
+    res = 64
+    focal = 0.5 * res / np.tan(np.radians(orbit.VIEW_ANGLE_DEG / 2))
+    point = 0.2 * right + 0.1 * up  # in the plane through the origin facing the camera
+    depth = float(np.dot(point - cam, forward))
+    col, row = orbit.project_points([point], cam, res)[0]
+    assert col == pytest.approx((res - 1) / 2 + focal * 0.2 / depth)
+    assert row == pytest.approx((res - 1) / 2 - focal * 0.1 / depth)
 
 
 def test_orbit_imports_only_numpy_and_paper():

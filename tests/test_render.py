@@ -1,4 +1,5 @@
-"""Analytic checks of the orbit and pixel checks of small off-screen renders (e2vlib.render)."""
+"""Analytic checks of the orbit and pixel checks of small off-screen renders (e2vlib.render,
+and the plotters e2vlib.scale.render_cache keeps for reuse)."""
 
 from __future__ import annotations
 
@@ -9,17 +10,18 @@ import pytest
 import trimesh
 
 from e2vlib import render
-from e2vlib.render import (
-    ANTI_ALIASING,
+from e2vlib.orbit import (
     VIEW_ANGLE_DEG,
+    camera_axes,
     orbit_angles,
     orbit_cameras,
     pixel_motion_per_frame,
     project_points,
-    release_plotters,
-    render_orbit,
     required_oversample,
 )
+from e2vlib.render import ANTI_ALIASING, make_plotter, render_orbit
+from e2vlib.scale import render_cache
+from e2vlib.scale.render_cache import release_plotters, render_orbit_cached
 
 RES = 48
 
@@ -162,7 +164,8 @@ def test_oversampling_samples_the_same_path_densely(cone_video):
     assert not np.array_equal(video[1], video[0])
 
 
-def test_plotter_closed_when_rendering_fails(monkeypatch):
+@pytest.mark.parametrize("renderer", [render_orbit, render_orbit_cached])
+def test_plotter_closed_when_rendering_fails(monkeypatch, renderer):
     import pyvista as pv
 
     made = []
@@ -177,9 +180,10 @@ def test_plotter_closed_when_rendering_fails(monkeypatch):
 
     monkeypatch.setattr(pv, "Plotter", FailingPlotter)
     with pytest.raises(RuntimeError, match="boom"):
-        render_orbit(upright_cone(), n_frames=2, resolution=16)
+        renderer(upright_cone(), n_frames=2, resolution=16)
     assert len(made) == 1 and made[0].render_window is None  # closed
-    assert all(scene.plotter is not made[0] for scene in render._SCENES.values())  # not kept
+    kept = [plotter for _, plotter in render_cache._PLOTTERS.values()]
+    assert all(plotter is not made[0] for plotter in kept)  # not kept
 
 
 @pytest.mark.parametrize(
@@ -223,43 +227,114 @@ def test_render_refuses_objects_the_orbit_cannot_frame(scale, offset, problem):
         render_orbit(mesh, n_video_frames=3, resolution=16)
 
 
+def _kept(resolution: int) -> list:
+    return [plotter for key, (_, plotter) in render_cache._PLOTTERS.items()
+            if key[1] == resolution]
+
+
 def test_reused_plotter_renders_each_mesh_as_a_fresh_one(cone_video):
     ball = trimesh.creation.icosphere(subdivisions=2, radius=0.3)
-    fresh_ball, _ = render_orbit(ball, n_frames=3, resolution=RES, reuse_plotter=False)
-    cached_ball, _ = render_orbit(ball, n_frames=3, resolution=RES)  # after the cone's render
+    fresh_ball, _ = render_orbit(ball, n_frames=3, resolution=RES)
+    render_orbit_cached(upright_cone(), n_frames=3, resolution=RES)
+    cached_ball, _ = render_orbit_cached(ball, n_frames=3, resolution=RES)  # after the cone
     np.testing.assert_array_equal(cached_ball, fresh_ball)
-    again, _ = render_orbit(upright_cone(), n_frames=3, resolution=RES)  # after the ball
+    again, _ = render_orbit_cached(upright_cone(), n_frames=3, resolution=RES)  # after the ball
     np.testing.assert_array_equal(again, cone_video[0])
-    scenes = [s for s in render._SCENES.values() if s.resolution == RES]
-    assert len(scenes) == 1  # one plotter for this resolution and anti-aliasing, reused
-    plotter = scenes[0].plotter
+    assert len(_kept(RES)) == 1  # one plotter for this resolution and anti-aliasing, reused
+    plotter = _kept(RES)[0]
     assert plotter.render_window is not None and len(plotter.renderer.actors) == 0  # mesh gone
     assert len(plotter.renderer.lights) == 3  # lights stay
 
 
+@pytest.mark.parametrize("anti_aliasing", ANTI_ALIASING)
+def test_kept_plotters_render_the_videos_of_fresh_ones(anti_aliasing):
+    # every mode, several meshes one after another, plain and oversampled: identical videos
+    meshes = [upright_cone(), trimesh.creation.icosphere(subdivisions=2, radius=0.3),
+              trimesh.creation.box((0.2, 0.6, 0.4))]
+    for oversample in (1, 2):
+        for mesh in meshes:
+            kw = {"n_video_frames": 4, "resolution": 24, "oversample": oversample,
+                  "anti_aliasing": anti_aliasing}
+            fresh, t_fresh = render_orbit(mesh, **kw)
+            kept, t_kept = render_orbit_cached(mesh, **kw)
+            np.testing.assert_array_equal(kept, fresh)
+            np.testing.assert_array_equal(t_kept, t_fresh)
+
+
+def test_a_lent_plotter_is_left_open_and_empty(cone_video):
+    plotter = make_plotter(RES, True)
+    try:
+        for _ in range(2):
+            video, _ = render_orbit(upright_cone(), n_frames=3, resolution=RES, plotter=plotter)
+            np.testing.assert_array_equal(video, cone_video[0])
+            assert plotter.render_window is not None and len(plotter.renderer.actors) == 0
+        with pytest.raises(ValueError, match="make_plotter"):  # made for another size
+            render_orbit(upright_cone(), n_frames=3, resolution=RES + 1, plotter=plotter)
+    finally:
+        plotter.close()
+
+
 def test_busy_cache_falls_back_to_a_private_plotter(cone_video):
-    before = dict(render._SCENES)
-    with render._SCENES_LOCK:  # as if another thread were rendering with the cached plotters
-        video, _ = render_orbit(upright_cone(), n_frames=3, resolution=RES)
+    before = dict(render_cache._PLOTTERS)
+    with render_cache._LOCK:  # as if another thread were rendering with the kept plotters
+        video, _ = render_orbit_cached(upright_cone(), n_frames=3, resolution=RES)
     np.testing.assert_array_equal(video, cone_video[0])
-    assert render._SCENES == before
+    assert render_cache._PLOTTERS == before
 
 
 def test_release_plotters_closes_the_cached_ones():
-    render_orbit(upright_cone(), n_frames=2, resolution=20)
-    plotters = [scene.plotter for scene in render._SCENES.values()]
+    render_orbit_cached(upright_cone(), n_frames=2, resolution=20)
+    plotters = [plotter for _, plotter in render_cache._PLOTTERS.values()]
     assert release_plotters() == len(plotters) >= 1
-    assert not render._SCENES and all(p.render_window is None for p in plotters)
-    video, _ = render_orbit(upright_cone(), n_frames=2, resolution=20)  # made again on demand
+    assert not render_cache._PLOTTERS and all(p.render_window is None for p in plotters)
+    video, _ = render_orbit_cached(upright_cone(), n_frames=2, resolution=20)  # made again
     assert video.shape == (2, 20, 20)
 
 
 def test_plotter_cache_is_bounded():
     release_plotters()
-    for res in range(16, 16 + render.MAX_CACHED_PLOTTERS + 2):
-        render_orbit(upright_cone(), n_frames=2, resolution=res)
-    assert len(render._SCENES) == render.MAX_CACHED_PLOTTERS
-    assert [s.resolution for s in render._SCENES.values()][-1] == res  # most recent kept
+    for res in range(16, 16 + render_cache.MAX_CACHED_PLOTTERS + 2):
+        render_orbit_cached(upright_cone(), n_frames=2, resolution=res)
+    assert len(render_cache._PLOTTERS) == render_cache.MAX_CACHED_PLOTTERS
+    assert [key[1] for key in render_cache._PLOTTERS][-1] == res  # most recent kept
+
+
+def test_pyvista_wrap_keeps_the_trimesh_faces():
+    import pyvista as pv
+
+    cone = upright_cone()
+    poly = pv.wrap(cone)
+    np.testing.assert_array_equal(poly.regular_faces, cone.faces)
+    np.testing.assert_array_equal(poly.points, cone.vertices)
+
+
+def test_screenshot_reads_the_pixels_pyvista_returns(cone_video):
+    plotter = make_plotter(RES, True)
+    try:
+        plotter.add_mesh(render._checked_polydata(upright_cone()), smooth_shading=False,
+                         **render._MATERIAL)
+        position = orbit_cameras(3)[1]
+        render.aim_camera(plotter.camera, position, camera_axes(position)[2])
+        fast = render._screenshot(plotter)
+        np.testing.assert_array_equal(fast, plotter.screenshot(return_img=True))
+        assert np.array_equal(render._to_grey(fast, 1), cone_video[0][1])
+    finally:
+        plotter.close()
+
+
+def test_the_renderer_aims_with_the_orbit_camera_axes():
+    # VTK's view matrix has rows right, up, -forward: those of e2vlib.orbit.camera_axes, so
+    # project_points (tests above and in test_geometry.py) sees what the renderer draws
+    import vtk
+
+    camera = vtk.vtkCamera()
+    for position in orbit_cameras(7):
+        forward, right, up = camera_axes(position)
+        render.aim_camera(camera, position, up)
+        matrix = camera.GetViewTransformMatrix()
+        rows = np.array([[matrix.GetElement(r, c) for c in range(3)] for r in range(3)])
+        np.testing.assert_allclose(rows, [right, up, -forward], atol=1e-12)
+        assert camera.GetViewAngle() == VIEW_ANGLE_DEG
 
 
 def test_anti_aliasing_modes():

@@ -46,12 +46,12 @@ def test_the_rule_for_a_real_difference_is_interval_overlap():
     rows = experiments.summarize(_results({"a": [0.40, 0.42, 0.44], "b": [0.51, 0.53, 0.55],
                                            "c": [0.44, 0.46, 0.48], "d": [0.9]}))
     by = {r["config"]: r for r in rows}
-    assert reports.is_real_difference(by["b"], by["a"])  # 0.480..0.580 vs 0.370..0.470: apart
-    assert not reports.is_real_difference(by["c"], by["a"])
-    assert not reports.is_real_difference(by["d"], by["a"])  # one seed: no interval
+    assert experiments.is_real_difference(by["b"], by["a"])  # 0.480..0.580 vs 0.370..0.470: apart
+    assert not experiments.is_real_difference(by["c"], by["a"])
+    assert not experiments.is_real_difference(by["d"], by["a"])  # one seed: no interval
     # the same verdict as experiments.compare's "clear"
     clear = {d["config"]: d["clear"] for d in experiments.compare(rows, "a")}
-    assert clear == {c: reports.is_real_difference(by[c], by["a"]) for c in "bcd"}
+    assert clear == {c: experiments.is_real_difference(by[c], by["a"]) for c in "bcd"}
 
 
 def test_finding_states_the_result_in_one_sentence():

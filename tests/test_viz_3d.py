@@ -236,7 +236,7 @@ def test_headless_opengl_window_respects_the_user_and_a_display(monkeypatch):
 
 
 def test_camera_frustum_geometry():
-    from e2vlib.render import VIEW_ANGLE_DEG
+    from e2vlib.orbit import VIEW_ANGLE_DEG
 
     position = np.array([0.0, -4.0, 2.0])
     lines, base = viz.camera_frustum(position, depth=2.0)

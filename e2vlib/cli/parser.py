@@ -3,7 +3,7 @@
 The choices come from the library's own tuples (:data:`e2vlib.data.SPLITS`,
 :data:`e2vlib.frames.WINDOWS`, :data:`e2vlib.noise.NOISE_LEVELS`,
 :data:`e2vlib.render.ANTI_ALIASING`, :data:`e2vlib.losses.LOSSES`,
-:data:`e2vlib.scale.training.PRECISIONS`; the model presets and training recipes named in the help
+:data:`e2vlib.scale.options.PRECISIONS`; the model presets and training recipes named in the help
 from :data:`e2vlib.model.PRESETS` and :data:`e2vlib.train.RECIPES`), so a new choice in the
 library is one on the command line too. Each subcommand runs a function of
 :mod:`~e2vlib.cli.data_commands`, :mod:`~e2vlib.cli.model_commands` or
@@ -56,7 +56,7 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
     from e2vlib.model import PRESETS
     from e2vlib.noise import NOISE_LEVELS
     from e2vlib.render import ANTI_ALIASING  # numpy only; pyvista loads when rendering
-    from e2vlib.scale.training import PRECISIONS
+    from e2vlib.scale.options import PRECISIONS
     from e2vlib.train import RECIPES
 
     parser = Parser(

@@ -136,7 +136,7 @@ class BuildConfig:
         if problems:
             raise ValueError("; ".join(problems))
         if self.oversample is None:
-            from e2vlib.render import required_oversample
+            from e2vlib.orbit import required_oversample
 
             object.__setattr__(self, "oversample",
                                required_oversample(paper.N_VIDEO_FRAMES, self.resolution))

@@ -66,12 +66,12 @@ def grey_frame_cameras(config: BuildConfig) -> np.ndarray:
     """Camera position (m) of every grey frame, shape ``(n_frames, 3)``.
 
     The orbit is fixed by the config alone (no per-sample randomness), so row ``k`` is
-    ``e2vlib.render.orbit_cameras(n_rendered)[grey_frame_indices(config)[k]]``; the camera
-    looks at the origin with +z up (see :func:`e2vlib.render.project_points`).
+    ``e2vlib.orbit.orbit_cameras(n_rendered)[grey_frame_indices(config)[k]]``; the camera
+    looks at the origin with +z up (see :func:`e2vlib.orbit.project_points`).
 
     Examples
     --------
-    >>> from e2vlib.render import orbit_cameras
+    >>> from e2vlib.orbit import orbit_cameras
     >>> config = BuildConfig(categories=("chair",), per_category=1, oversample=1)
     >>> cameras = grey_frame_cameras(config)
     >>> cameras.shape, bool(np.allclose(cameras[0], orbit_cameras(120)[1]))

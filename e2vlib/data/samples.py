@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,13 +47,17 @@ class Sample:
     grey_index: np.ndarray | None = None
 
 
-def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
+def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0, *,
+                   renderer: Callable | None = None) -> Sample:
     """Run one mesh through the whole pipeline: voxels, orbit video, events, frames.
 
     The mesh is normalized first (bbox centred, longest side 1). This is exactly what
     the dataset builder and ``python -m e2vlib reconstruct --mesh`` do. With
     ``config.grey_video`` the same rendered video also gives ``sample.grey``
     (:func:`grey_frame_indices`, :func:`video_to_grey`); nothing is rendered twice.
+    ``renderer`` renders the orbit, called as :func:`e2vlib.render.render_orbit` (the
+    default, which makes a plotter per call); builds of many samples pass
+    ``e2vlib.scale.render_cache.render_orbit_cached``, which keeps one (the same video).
     Introduced in notebooks/04_building_the_dataset.ipynb.
 
     Examples
@@ -76,9 +80,10 @@ def mesh_to_sample(mesh, config: BuildConfig, seed: int = 0) -> Sample:
 
     mesh = normalize_mesh(mesh)
     voxels = voxelize(mesh, paper.GRID_SIDE)
-    video, t_us = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
-                               resolution=config.resolution, oversample=config.oversample,
-                               anti_aliasing=config.anti_aliasing)
+    render = render_orbit if renderer is None else renderer
+    video, t_us = render(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
+                         resolution=config.resolution, oversample=config.oversample,
+                         anti_aliasing=config.anti_aliasing)
     events = simulate_noisy_events(video, t_us, contrast_pos=config.contrast,
                                    contrast_neg=config.contrast, seed=seed,
                                    **NOISE_LEVELS[config.noise])

@@ -60,19 +60,18 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "EXTRA_CACHE", "EXTRA_COMMAND", "NOISE_CACHE", "NOISE_COMMANDS", "RENDER_CACHE",
             "RENDER_COMMAND", "SMALL_SETTINGS", "STORAGE_SETTINGS", "cache_command",
         ],
-        "loader": [
-            "events_root", "grey_input", "input_config", "load_split", "run_size", "train_counts",
-        ],
+        "loader": ["load_split", "protocol_data_config"],
+        "protocol": ["NEUTRAL", "Protocol", "canonical_protocol", "first_per_category"],
         "provenance": ["REPO", "cpu_name", "git_commit", "package_version"],
-        "records": [
-            "RESULTS_DIR", "finding", "load_results", "minutes_per_run", "MissingResultsError",
-            "recorded_on", "report", "runs_of",
+        "reports": [
+            "BENCH_RESULTS", "RESULTS_DIR", "MissingResultsError", "bench_machine",
+            "bench_section", "bench_table", "finding", "lesson_minutes", "load_results",
+            "minutes_per_run", "recorded_on", "report", "runs_of",
         ],
         "runner": ["best_threshold", "command_line", "find_same_run", "run_one", "run_study"],
-        "studies": [
-            "BASE", "COLLAPSE_IOU", "NEUTRAL", "QUICK", "STUDIES", "THRESHOLDS",
-            "canonical_protocol", "epochs_of", "is_collapsed", "Study",
+        "studies": ["COLLAPSE_IOU", "QUICK", "STUDIES", "THRESHOLDS", "Study", "is_collapsed"],
+        "summary": [
+            "compare", "format_study_table", "is_real_difference", "plot_summary", "summarize",
         ],
-        "summary": ["compare", "format_summary", "is_real_difference", "plot_summary", "summarize"],
     },
 )

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,7 +22,10 @@ from e2vlib.experiments.caches import (
     cache_command,
 )
 from e2vlib.experiments.protocol import Protocol, first_per_category
-from e2vlib.inputs import GREY_INPUTS, TensorSet, grey_input, preload
+from e2vlib.inputs import GREY_INPUTS
+
+if TYPE_CHECKING:
+    from e2vlib.inputs import TensorSet
 
 
 def _check_events_folder(protocol: Protocol, data: Path, split: str) -> Path:
@@ -79,6 +83,7 @@ def _tensors(protocol: Protocol, root: str | os.PathLike, split: str,
 
     from e2vlib.data import E2VDataset
     from e2vlib.frames import downsample
+    from e2vlib.inputs import TensorSet, preload
 
     dataset = E2VDataset(root, split)
     keep = first_per_category(dataset.categories, per_category)
@@ -93,7 +98,7 @@ def _tensors(protocol: Protocol, root: str | os.PathLike, split: str,
     from tqdm.auto import tqdm
 
     from e2vlib.data import load_grey_video
-    from e2vlib.inputs import events_to_input
+    from e2vlib.inputs import events_to_input, grey_input
     from e2vlib.io import load_events
 
     source = _check_events_folder(protocol, Path(root), split)
@@ -129,6 +134,8 @@ def load_split(protocol: Protocol, split: str, progress: bool = False) -> Tensor
     for s > 1.
     """
     import torch
+
+    from e2vlib.inputs import TensorSet
 
     key = protocol.input_key(split)
     if key in _MEMORY:

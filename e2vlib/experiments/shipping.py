@@ -18,7 +18,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from e2vlib.experiments.records import load_results, runs_of
+from e2vlib.experiments.reports import load_results, runs_of
 
 KEPT_KEYS = ("recipe", "loss", "history", "epoch", "best_iou", "seed")
 """Training facts of the kept checkpoint carried into the shipped one."""

@@ -137,10 +137,10 @@ def preload(dataset, progress: bool = False) -> TensorSet:
     if ids is None:
         ids = [item[0] for item in dataset.items]
     return TensorSet(torch.stack(frames), torch.stack(voxels), list(dataset.categories),
-                     list(ids), _config_dict(getattr(dataset, "config", None)))
+                     list(ids), settings_dict(getattr(dataset, "config", None)))
 
 
-def _config_dict(config: object) -> dict | None:
+def settings_dict(config: object) -> dict | None:
     """A dataset's build settings as a dict (a dict, or an object with ``to_dict``)."""
     if hasattr(config, "to_dict"):
         config = config.to_dict()

@@ -32,6 +32,7 @@ from e2vlib.model import (
     checkpoint_data_config,
     read_checkpoint,
 )
+from e2vlib.scale.options import PRECISIONS
 from e2vlib.train.evaluation import validation_scores
 from e2vlib.train.loop import (
     epoch_batches,
@@ -43,9 +44,6 @@ from e2vlib.train.loop import (
     train_epoch,
 )
 from e2vlib.train.recipes import Recipe, lr_at_step, lr_schedule
-
-PRECISIONS = ("fp32", "bf16")
-"""The ``precision=`` choices of :func:`fit_at_scale`."""
 
 LEGACY_LOSS = "bce"
 """The loss of checkpoints written before the loss was recorded: fit only had BCE then."""

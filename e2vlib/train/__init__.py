@@ -1,34 +1,38 @@
 """Training and evaluation of E2V: AdamW + binary cross-entropy, as in the paper.
 
-:func:`fit` trains (with the paper's BCE, or a focal or BCE + Dice loss from
-:mod:`e2vlib.losses`) with progress bars, keeps a per-epoch history, writes ``last.pt`` and
-``best.pt`` (by validation IoU at :data:`e2vlib.paper.IOU_THRESHOLD`) atomically every
-epoch, stores the data config in both, resumes exactly from ``last.pt``, and runs
-data-parallel when launched with ``torchrun``. :func:`evaluate` reports the Pix2Vox
-protocol (IoU at :data:`e2vlib.paper.IOU_THRESHOLDS` and F-scores, overall and per
-category, with mean-shape baselines), scored by :mod:`e2vlib.metrics`. Every public name is
-importable from here (``from e2vlib.train import fit, evaluate, TensorSet``); the code lives
-in four modules, each with one job:
+:func:`fit` is a plain training loop (with the paper's BCE, or a focal or BCE + Dice loss
+from :mod:`e2vlib.losses`): per epoch it trains on shuffled batches, scores the validation
+split, keeps a history, and writes ``last.pt`` and ``best.pt`` (by validation IoU at
+:data:`e2vlib.paper.IOU_THRESHOLD`) atomically, with the data config in both.
+:func:`evaluate` reports the Pix2Vox protocol (IoU at :data:`e2vlib.paper.IOU_THRESHOLDS`
+and F-scores, overall and per category, with mean-shape baselines), scored by
+:mod:`e2vlib.metrics`. Resuming, bf16, channels-last, a per-step learning rate and
+data-parallel runs (``torchrun``) are opt-in: :func:`e2vlib.scale.training.fit_at_scale`
+runs the same epochs from the same pieces. Every public name is importable from here
+(``from e2vlib.train import fit, evaluate``); the code lives in four modules, each with one
+job:
 
 ========================  ==================================================================
 ``train.recipes``         :class:`Recipe`, :data:`RECIPES` (``"paper"``, ``"tiny"``,
-                          ``"tiny_step"``), :func:`get_recipe`, the learning rate per epoch
-                          (:func:`lr_schedule`) and per step with warm-up
+                          ``"tiny_step"``, ...), :func:`get_recipe`, the learning rate per
+                          epoch (:func:`lr_schedule`) and per step with warm-up
                           (:func:`lr_at_step`)
-``train.devices``         :func:`resolve_device`, :func:`bf16_is_fast`,
-                          :func:`to_channels_last`, :data:`PRECISIONS`,
-                          :func:`init_distributed_from_env`
-``train.loop``            :func:`fit`, :func:`init_output_prior` and what resuming checks
-                          (:func:`resume_problems`, :func:`read_resume_state`)
-``train.evaluation``      :func:`predict`, :func:`evaluate`, :func:`category_mean_shapes`
+``train.devices``         :func:`resolve_device` (``"auto"``: CUDA where there is one, else
+                          the CPU)
+``train.evaluation``      :func:`predict`, :func:`validation_scores`, :func:`evaluate`,
+                          :func:`category_mean_shapes`
+``train.loop``            :func:`fit` and the pieces it is made of, which
+                          :func:`~e2vlib.scale.training.fit_at_scale` reuses:
+                          :func:`fit_settings`, :func:`fit_data`, :func:`epoch_batches`,
+                          :func:`train_step`, :func:`train_epoch`, :func:`save_run`,
+                          :func:`epoch_line`; :func:`init_output_prior`
 ========================  ==================================================================
 
 ``recipes`` and ``devices`` import no other module of this package; ``evaluation`` imports
-those two, ``loop`` all three; none imports this ``__init__``. :class:`TensorSet` and
-:func:`preload` (a split held in memory) live in :mod:`e2vlib.inputs` and are re-exported
-here, as are the score tables
-(:func:`~e2vlib.metrics.score_predictions`, :func:`~e2vlib.metrics.format_table`,
-:data:`~e2vlib.metrics.METRIC_KEYS`) of :mod:`e2vlib.metrics`.
+those two, ``loop`` all three; none imports this ``__init__``. A split held in memory
+(:class:`~e2vlib.inputs.TensorSet`, :func:`~e2vlib.inputs.preload`) lives in
+:mod:`e2vlib.inputs`; the score tables (:func:`~e2vlib.metrics.score_predictions`,
+:func:`~e2vlib.metrics.format_table`) in :mod:`e2vlib.metrics`.
 
 Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
 """
@@ -38,18 +42,17 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "devices": [
-            "PRECISIONS", "bf16_is_fast", "init_distributed_from_env", "resolve_device",
-            "to_channels_last",
+        "devices": ["resolve_device"],
+        "evaluation": [
+            "VAL_BATCH", "category_mean_shapes", "evaluate", "predict", "validation_scores",
         ],
-        "evaluation": ["VAL_BATCH", "category_mean_shapes", "evaluate", "predict"],
         "loop": [
-            "LEGACY_LOSS", "RESUME_KEYS", "fit", "init_output_prior", "read_resume_state",
-            "resume_problems",
+            "SCALE_OPTIONS", "epoch_batches", "epoch_line", "fit", "fit_data", "fit_settings",
+            "init_output_prior", "save_run", "train_epoch", "train_step",
         ],
         "recipes": [
-            "COSINE_FLOOR", "RECIPES", "WARMUP_STEPS", "get_recipe", "lr_at_step", "lr_schedule",
-            "Recipe",
+            "COSINE_FLOOR", "RECIPES", "WARMUP_STEPS", "Recipe", "get_recipe", "lr_at_step",
+            "lr_schedule",
         ],
     },
 )

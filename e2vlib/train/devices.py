@@ -29,7 +29,7 @@ def resolve_device(device: str | torch.device = "auto") -> torch.device:
     return device
 
 
-def _model_device(model: nn.Module) -> torch.device | None:
+def model_device(model: nn.Module) -> torch.device | None:
     """Device of the model's first parameter (or buffer); None for a model without any."""
     for tensor in (*model.parameters(), *model.buffers()):
         return tensor.device

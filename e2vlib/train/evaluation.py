@@ -12,8 +12,8 @@ from e2vlib.inputs.tensors import TensorSet, preload
 from e2vlib.metrics import iou, score_split
 from e2vlib.model import E2V
 from e2vlib.paper import GRID_SIDE, IOU_THRESHOLD
-from e2vlib.train.devices import _model_device, resolve_device
-from e2vlib.train.recipes import _is_whole
+from e2vlib.train.devices import model_device, resolve_device
+from e2vlib.train.recipes import is_whole_number
 
 VAL_BATCH = 16
 """Samples per forward pass when validating and predicting (no gradients: memory is small)."""
@@ -50,11 +50,11 @@ def predict(model: E2V, frames: torch.Tensor, device: str = "auto",
     >>> p.shape, p.dtype, bool(((p >= 0) & (p <= 1)).all())
     (torch.Size([3, 32, 32, 32]), torch.float32, True)
     """
-    if not _is_whole(batch_size) or batch_size < 1:
+    if not is_whole_number(batch_size) or batch_size < 1:
         raise ValueError(f"batch_size must be a whole number >= 1, got {batch_size!r}")
     frames = torch.as_tensor(frames)
     device = resolve_device(device)
-    home, was_training = _model_device(model), model.training
+    home, was_training = model_device(model), model.training
     out = []
     try:
         model.to(device).eval()

@@ -22,13 +22,13 @@ import numpy as np
 import torch
 
 from e2vlib.files import atomic_path
-from e2vlib.inputs.tensors import TensorSet, _config_dict, preload
+from e2vlib.inputs.tensors import TensorSet, preload, settings_dict
 from e2vlib.losses import LOSSES, make_loss
 from e2vlib.model import E2V, save_checkpoint
 from e2vlib.paper import IOU_THRESHOLD
 from e2vlib.train.devices import resolve_device
 from e2vlib.train.evaluation import validation_scores
-from e2vlib.train.recipes import Recipe, _is_whole, get_recipe, lr_schedule
+from e2vlib.train.recipes import Recipe, get_recipe, is_whole_number, lr_schedule
 
 SCALE_OPTIONS = ("resume", "on_step", "precision", "channels_last")
 """Options of :func:`e2vlib.scale.training.fit_at_scale` that :func:`fit` does not take."""
@@ -304,7 +304,7 @@ def fit_settings(recipe: str | Recipe, epochs: int | None, loss: str, device: st
     if not isinstance(loss, str) or loss not in LOSSES:
         raise ValueError(f"unknown loss {loss!r}; choose one of {', '.join(LOSSES)} "
                          "(e2vlib.losses.LOSSES)")
-    if not _is_whole(seed):
+    if not is_whole_number(seed):
         raise ValueError(f"seed must be a whole number, got {seed!r}")
     return recipe, make_loss(loss), resolve_device(device), int(seed)
 
@@ -321,12 +321,12 @@ def fit_data(model: E2V, train_data, val_data,
     for name, data in (("train_data", train_set), ("val_data", val_set)):
         _check_sample_shape(model, tuple(data.frames.shape[1:]), name)
     if data_config is None:
-        data_config = _config_dict(getattr(train_data, "config", None)) or train_set.config
-    elif _config_dict(data_config) is None:
+        data_config = settings_dict(getattr(train_data, "config", None)) or train_set.config
+    elif settings_dict(data_config) is None:
         raise ValueError(f"data_config must be a dict (e.g. BuildConfig.to_dict()) or None, "
                          f"got {type(data_config).__name__}")
     else:
-        data_config = _config_dict(data_config)
+        data_config = settings_dict(data_config)
     return train_set, val_set, data_config
 
 

@@ -59,16 +59,16 @@ class Recipe:
 
     def __post_init__(self) -> None:
         problems = []
-        if not _is_whole(self.batch_size) or self.batch_size < 1:
+        if not is_whole_number(self.batch_size) or self.batch_size < 1:
             problems.append(f"batch_size must be a whole number >= 1, got {self.batch_size!r}:"
                             " pass a positive batch size (batch_size=..., --batch-size)")
-        if not _is_whole(self.epochs) or self.epochs < 1:
+        if not is_whole_number(self.epochs) or self.epochs < 1:
             problems.append(f"epochs must be a whole number >= 1, got {self.epochs!r}: train "
                             "for at least one epoch (epochs=..., --epochs)")
         if not _is_number(self.lr) or not self.lr > 0 or not math.isfinite(self.lr):
             problems.append(f"lr must be a finite number > 0, got {self.lr!r}: pass a "
                             "positive learning rate (lr=..., --lr)")
-        if not _is_whole(self.warmup_steps) or self.warmup_steps < 0:
+        if not is_whole_number(self.warmup_steps) or self.warmup_steps < 0:
             problems.append(f"warmup_steps must be a whole number >= 0, got "
                             f"{self.warmup_steps!r}")
         elif self.warmup_steps and not self.per_step:
@@ -96,7 +96,8 @@ def _is_number(value: object) -> bool:
         value, bool)
 
 
-def _is_whole(value: object) -> bool:
+def is_whole_number(value: object) -> bool:
+    """A number (not a bool) with no fractional part: 3, 3.0, np.int64(3)."""
     return _is_number(value) and float(value) == int(value)
 
 

@@ -13,7 +13,7 @@ answer_1 = on + off
     2: """answer_2 = {"reset": 4 * round(0.155 / 0.2), "carry_over": round(4 * 0.155 / 0.2)}
 """,
     # motion scaled with the pixel count (resolution squared) instead of the resolution
-    3: """worst_128 = render.pixel_motion_per_frame(N_VIDEO, 128, 1).max()
+    3: """worst_128 = orbit.pixel_motion_per_frame(N_VIDEO, 128, 1).max()
 pixel_ratio = (paper.RENDER_SIZE_PX / 128) ** 2
 answer_3 = (int(np.ceil(worst_128 * pixel_ratio)), int(np.ceil(worst_128 / 0.5)))
 """,
