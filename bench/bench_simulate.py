@@ -23,7 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import machine, spread, timeit, write_section  # noqa: E402
 from reference_esim import reference_esim  # noqa: E402
 
-from e2vlib.render import pixel_motion_per_frame, render_orbit, required_oversample  # noqa: E402
+from e2vlib.orbit import pixel_motion_per_frame, required_oversample  # noqa: E402
+from e2vlib.render import render_orbit  # noqa: E402
 from e2vlib.simulate import simulate_events  # noqa: E402
 
 TITLE = "Simulation and rendering"
@@ -88,8 +89,8 @@ def main() -> None:
         print(lines[-1], flush=True)
     lines += ["", "Time per call includes creating and closing the plotter. Max motion: the "
               "largest image displacement between consecutive frames of any point of the unit "
-              "cube (`e2vlib.render.pixel_motion_per_frame`); `oversample` from "
-              "`e2vlib.render.required_oversample`."]
+              "cube (`e2vlib.orbit.pixel_motion_per_frame`); `oversample` from "
+              "`e2vlib.orbit.required_oversample`."]
 
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     lines.append(f"\nLoad average (1 min) at the start: {load_start:.1f}, at the end: {load:.1f} "

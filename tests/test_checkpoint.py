@@ -325,9 +325,9 @@ def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
     import json
 
     from e2vlib.data import E2VDataset
+    from e2vlib.inputs import preload
     from e2vlib.metrics import score_split
     from e2vlib.train import predict
-    from e2vlib.inputs import preload
 
     best = REPO / "data_small" / "checkpoints" / "best.pt"
     state = read_checkpoint(best)

@@ -73,7 +73,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "build": [
             "DATASET_ENTRIES", "SHARDS_DIR", "build_dataset", "check_build_folder",
-            "describe_build", "run_jobs",
+            "describe_build", "JobError", "run_jobs",
         ],
         "checks": [
             "MANIFEST_REQUIRED", "MAX_CONFIG_BYTES", "MAX_FRAMES_PER_SAMPLE", "MAX_ID_LENGTH",
@@ -82,7 +82,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         ],
         "commands": ["build_command", "make_data_command"],
         "config": [
-            "MAX_PER_CATEGORY", "MAX_RESOLUTION", "BuildConfig", "dataset_config", "frame_settings",
+            "FRAME_FIELDS", "LEGACY_WINDOWS", "MAX_PER_CATEGORY", "MAX_RESOLUTION", "BuildConfig",
+            "dataset_config", "frame_settings",
         ],
         "dataset": ["E2VDataset", "Verification", "verify_dataset"],
         "grey": [

@@ -18,9 +18,9 @@ import re
 from pathlib import Path
 
 from e2vlib import paper
+from e2vlib.frames import WINDOWS
 
 SPLITS = ("train", "val", "test")
-WINDOWS = ("fixed", "paper")  # e2vlib.frames.WINDOWS (not imported: numba stays unloaded)
 MANIFEST_REQUIRED = ("id", "category", "split", "seed", "n_events")
 MAX_MANIFEST_BYTES = 64 * 2**20
 """Largest manifest.csv read (64 MiB; the paper's 39,741 samples take about 4 MiB)."""

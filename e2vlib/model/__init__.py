@@ -23,8 +23,7 @@ modules, each with one job:
 ``model.decoder``          features -> voxel features: :class:`Bridge` (to the 32^3
                            hidden volume), :class:`UNetDecoder` (Pix2Vox++-like)
 ``model.networks``         the whole network: :class:`E2V`, :func:`build_e2v`,
-                           :func:`count_parameters`; re-exports the names of the three
-                           modules above (its home before they were split out)
+                           :func:`count_parameters`
 ``model.integrity``        is a checkpoint intact: :func:`weights_digest`,
                            :func:`verify_weights` (digest and NaN checks),
                            :class:`CheckpointError`, :data:`DIGEST_KEY`
@@ -34,18 +33,17 @@ modules, each with one job:
                            :func:`slim_checkpoint`, and the data config a model was
                            trained on (:func:`checkpoint_data_config`,
                            :func:`check_frames_match`)
-``model.summary``          size and memory: :func:`parameter_breakdown`, :func:`summary`,
-                           :func:`format_summary`, :func:`activation_bytes`
+``model.summary``          size and memory: :func:`parameter_breakdown`,
+                           :func:`layer_table`, :func:`format_layer_table`,
+                           :func:`activation_bytes`
 =========================  =================================================================
 
 Imports run one way: ``config`` imports only ``e2vlib.paper``; ``encoders`` imports
 ``config``; ``decoder`` imports ``config`` and ``encoders`` (their convolution and
 normalization helpers); ``networks`` those three; ``integrity``, ``checkpoint`` and
 ``summary`` import ``networks`` (``checkpoint`` also ``integrity`` and ``e2vlib.files``);
-none imports this package's ``__init__``. The package attribute ``e2vlib.model.summary`` is
-the function :func:`summary`; import the module itself as
-``from e2vlib.model.summary import ...`` or with
-``importlib.import_module("e2vlib.model.summary")``.
+none imports this package's ``__init__``. Importing the package loads no torch: a name loads
+its module on first use, so ``from e2vlib.model import PRESETS`` stays torch-free.
 
 Introduced in notebooks/05_the_e2v_model.ipynb.
 """
@@ -56,9 +54,9 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "checkpoint": [
-            "DATA_CONFIG_KEY", "FRAME_FIELDS", "check_frames_match", "checkpoint_data_config",
-            "frame_settings", "load_checkpoint", "model_from_checkpoint", "read_checkpoint",
-            "save_checkpoint", "slim_checkpoint",
+            "DATA_CONFIG_KEY", "check_frames_match", "checkpoint_data_config",
+            "load_checkpoint", "model_from_checkpoint", "read_checkpoint", "save_checkpoint",
+            "slim_checkpoint",
         ],
         "config": [
             "BOTTLENECKS", "BRIDGES", "ENCODERS", "GRID_SIDE", "NORMS", "PAPER_PARAMETERS",
@@ -70,6 +68,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         ],
         "integrity": ["DIGEST_KEY", "CheckpointError", "verify_weights", "weights_digest"],
         "networks": ["E2V", "build_e2v", "count_parameters"],
-        "summary": ["activation_bytes", "format_summary", "parameter_breakdown", "summary"],
+        "summary": [
+            "activation_bytes", "format_layer_table", "layer_table", "parameter_breakdown",
+        ],
     },
 )

@@ -33,8 +33,9 @@ import torch
 
 from e2vlib.data.config import FRAME_FIELDS, frame_settings
 from e2vlib.files import atomic_path
+from e2vlib.model.config import E2VConfig
 from e2vlib.model.integrity import DIGEST_KEY, CheckpointError, verify_weights, weights_digest
-from e2vlib.model.networks import E2V, E2VConfig
+from e2vlib.model.networks import E2V
 
 DATA_CONFIG_KEY = "data_config"
 """Checkpoint key of the dataset build settings the model was trained on."""

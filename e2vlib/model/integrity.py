@@ -17,7 +17,8 @@ from typing import Any
 
 import torch
 
-from e2vlib.model.networks import E2V, E2VConfig
+from e2vlib.model.config import E2VConfig
+from e2vlib.model.networks import E2V
 
 DIGEST_KEY = "weights_sha256"
 """Checkpoint key of the weights' SHA-256 digest (hex string)."""

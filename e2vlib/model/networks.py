@@ -54,49 +54,12 @@ from typing import Any
 import torch
 from torch import nn
 
-from e2vlib.model.config import (
-    BOTTLENECKS,
-    BRIDGES,
-    ENCODERS,
-    GRID_SIDE,
-    NORMS,
-    PAPER_PARAMETERS,
-    PRESETS,
-    RESNET_LAYERS,
-    VOXEL_RESOLUTION,
-    E2VConfig,
-)
+from e2vlib.model.config import PRESETS, E2VConfig
 from e2vlib.model.decoder import Bridge, UNetDecoder
-from e2vlib.model.encoders import (
-    BasicBlock,
-    Bottleneck,
-    Frames2dEncoder,
-    Frames2dGRUEncoder,
-    ResNetEncoder,
-)
+from e2vlib.model.encoders import Frames2dEncoder, Frames2dGRUEncoder, ResNetEncoder
 
-__all__ = [
-    "BOTTLENECKS",
-    "BRIDGES",
-    "E2V",
-    "ENCODERS",
-    "GRID_SIDE",
-    "NORMS",
-    "PAPER_PARAMETERS",
-    "PRESETS",
-    "RESNET_LAYERS",
-    "VOXEL_RESOLUTION",
-    "BasicBlock",
-    "Bottleneck",
-    "Bridge",
-    "E2VConfig",
-    "Frames2dEncoder",
-    "Frames2dGRUEncoder",
-    "ResNetEncoder",
-    "UNetDecoder",
-    "build_e2v",
-    "count_parameters",
-]
+__all__ = ["E2V", "build_e2v", "count_parameters"]
+
 
 # --------------------------------------------------------------------------- the model
 

@@ -14,7 +14,8 @@ from typing import Any
 import torch
 from torch import nn
 
-from e2vlib.model.networks import E2V, Frames2dGRUEncoder, ResNetEncoder, count_parameters
+from e2vlib.model.encoders import Frames2dGRUEncoder, ResNetEncoder
+from e2vlib.model.networks import E2V, count_parameters
 
 
 def parameter_breakdown(model: E2V) -> dict[str, int]:
