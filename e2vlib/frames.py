@@ -184,7 +184,7 @@ def accumulate(
     if n_frames is not None:
         n = n_frames  # later frames are dropped, missing ones stay empty
     kept = int(np.searchsorted(frame, n))  # frames rise with time: those before n lead
-    inside, frame = events[first:first + kept], frame[:kept]
+    inside, frame = events[first:first + kept], frame[:kept].astype(np.intp, copy=False)
 
     # 2. One index per event into the flat stack (n, channels, H, W).
     channels = 2 if mode == "polarity" else 1

@@ -63,19 +63,19 @@ MAX_OVERSAMPLE = 64
 """The largest ``oversample`` :func:`required_oversample` searches."""
 
 
-def _check_count(name: str, value: int, minimum: int) -> int:
+def check_count(name: str, value: int, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
     return int(value)
 
 
-def _video_frames(n_video_frames: int, n_frames: int | None) -> int:
+def resolve_video_frames(n_video_frames: int, n_frames: int | None) -> int:
     """Resolve the old keyword ``n_frames`` (video frames) to ``n_video_frames``."""
     if n_frames is not None:
         if n_video_frames != paper.N_VIDEO_FRAMES and n_video_frames != n_frames:
             raise TypeError("give n_video_frames or its old name n_frames, not both")
         n_video_frames = n_frames
-    return _check_count("n_video_frames (formerly n_frames)", n_video_frames, 2)
+    return check_count("n_video_frames (formerly n_frames)", n_video_frames, 2)
 
 
 def _check_fps(fps: float) -> float:
@@ -85,10 +85,10 @@ def _check_fps(fps: float) -> float:
     return float(fps)
 
 
-def _check_clock(fps: float, oversample: int) -> tuple[float, int]:
+def check_clock(fps: float, oversample: int) -> tuple[float, int]:
     """``(fps, oversample)`` checked: whole-microsecond stamps must stay distinct."""
     fps = _check_fps(fps)
-    k = _check_count("oversample", oversample, 1)
+    k = check_count("oversample", oversample, 1)
     if k * fps > 1e6:
         raise ValueError(
             f"fps x oversample = {k * fps:g} frames/s puts several frames in one "
@@ -126,8 +126,8 @@ def n_rendered(n_video_frames: int = paper.N_VIDEO_FRAMES, oversample: int = 1) 
     >>> n_rendered(120), n_rendered(120, 3)
     (120, 358)
     """
-    n = _check_count("n_video_frames", n_video_frames, 2)
-    k = _check_count("oversample", oversample, 1)
+    n = check_count("n_video_frames", n_video_frames, 2)
+    k = check_count("oversample", oversample, 1)
     return k * (n - 1) + 1
 
 
@@ -148,8 +148,8 @@ def rendered_times_us(n_video_frames: int = paper.N_VIDEO_FRAMES,
     >>> len(t3), bool((t3[::3] == t).all())
     (358, True)
     """
-    n = _check_count("n_video_frames", n_video_frames, 2)
-    fps, k = _check_clock(fps, oversample)
+    n = check_count("n_video_frames", n_video_frames, 2)
+    fps, k = check_clock(fps, oversample)
     return np.round(np.arange(k * (n - 1) + 1) * 1e6 / (k * fps)).astype(np.int64)
 
 
@@ -189,8 +189,8 @@ def window_frame_indices(n_windows: int, dt_us: int,
     >>> index.shape, index[:4].tolist(), index[-2:].tolist()  # frame 119 is at 495.8 ms
     ((100,), [1, 2, 3, 4], [118, 119])
     """
-    n = _check_count("n_windows", n_windows, 1)
-    dt = _check_count("dt_us", dt_us, 1)
+    n = check_count("n_windows", n_windows, 1)
+    dt = check_count("dt_us", dt_us, 1)
     return nearest_frames(rendered_times_us(n_video_frames, fps, oversample), n, dt)
 
 
@@ -217,7 +217,7 @@ def orbit_cameras(n_video_frames: int = paper.N_VIDEO_FRAMES, *,
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _video_frames(n_video_frames, n_frames)
+    n = resolve_video_frames(n_video_frames, n_frames)
     return _spiral(_orbit_s(n))
 
 
@@ -238,7 +238,7 @@ def orbit_angles(n_video_frames: int = paper.N_VIDEO_FRAMES, *, n_frames: int | 
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _video_frames(n_video_frames, n_frames)
+    n = resolve_video_frames(n_video_frames, n_frames)
     s = _orbit_s(n)
     pos = _spiral(s)
     horizontal = np.hypot(pos[:, 0], pos[:, 1])
@@ -300,7 +300,7 @@ def orbit_camera_at(t_us: ArrayLike, n_video_frames: int = paper.N_VIDEO_FRAMES,
     >>> (orbit_camera_at([-5, 10**7]).round(6) + 0.0).tolist()  # before and after: clipped
     [[0.0, -4.0, 2.0], [0.0, -4.0, -2.0]]
     """
-    n = _check_count("n_video_frames", n_video_frames, 2)
+    n = check_count("n_video_frames", n_video_frames, 2)
     fps = _check_fps(fps)
     t = np.asarray(t_us, dtype=np.float64).reshape(-1)
     if not np.all(np.isfinite(t)):
@@ -361,7 +361,7 @@ def project_points(points: ArrayLike, camera_position: ArrayLike, resolution: in
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    res = _check_count("resolution", resolution, 1)
+    res = check_count("resolution", resolution, 1)
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     cam = np.asarray(camera_position, dtype=np.float64).reshape(3)
     forward, right, up = camera_axes(cam)
@@ -405,9 +405,9 @@ def pixel_motion_per_frame(
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _video_frames(n_video_frames, n_frames)
-    k = _check_count("oversample", oversample, 1)
-    res = _check_count("resolution", resolution, 1)
+    n = resolve_video_frames(n_video_frames, n_frames)
+    k = check_count("oversample", oversample, 1)
+    res = check_count("resolution", resolution, 1)
     if points is None:
         g = np.linspace(-0.5, 0.5, 9)
         points = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -433,7 +433,7 @@ def required_oversample(
     """
     if not (math.isfinite(max_motion_px) and max_motion_px > 0):
         raise ValueError(f"max_motion_px must be a positive number, got {max_motion_px!r}")
-    n_frames = _video_frames(n_video_frames, n_frames)
+    n_frames = resolve_video_frames(n_video_frames, n_frames)
     worst = float(pixel_motion_per_frame(n_frames, resolution, 1).max())
     k = max(1, math.ceil(worst / max_motion_px))  # motion shrinks about as 1/k
     while k <= MAX_OVERSAMPLE:

@@ -21,13 +21,13 @@ import numpy as np
 from e2vlib import _headless, paper
 from e2vlib.orbit import (
     VIEW_ANGLE_DEG,
-    _check_clock,
-    _check_count,
-    _video_frames,
     camera_axes,
+    check_clock,
+    check_count,
     orbit_cameras,
     rendered_cameras,
     rendered_times_us,
+    resolve_video_frames,
 )
 
 _CLIPPING_RANGE = (0.1, 50.0)  # near/far planes (m); objects fit in the unit cube
@@ -47,7 +47,7 @@ MAX_OBJECT_SIZE_M, MIN_OBJECT_SIZE_M = 2.0, 0.01
 built for objects normalised to the unit cube (the paper's 1 m^3)."""
 
 
-def _anti_aliasing(value) -> str:
+def anti_aliasing_mode(value) -> str:
     """A mode of :data:`ANTI_ALIASING`; any non-string counts by its truth, as it always did."""
     if not isinstance(value, str):
         return "ssaa" if value else "msaa"
@@ -68,8 +68,8 @@ def make_plotter(resolution: int = 256, anti_aliasing: bool | str = True):
     """
     import pyvista as pv
 
-    res = _check_count("resolution", resolution, 1)
-    aa = _anti_aliasing(anti_aliasing)
+    res = check_count("resolution", resolution, 1)
+    aa = anti_aliasing_mode(anti_aliasing)
     _headless.headless_opengl_window()
     size = res * (SUPERSAMPLE_FACTOR if aa == "supersample" else 1)
     plotter = pv.Plotter(off_screen=True, notebook=False, window_size=(size, size),
@@ -222,10 +222,10 @@ def render_orbit(
 
     Introduced in notebooks/03_simulating_events.ipynb.
     """
-    n = _video_frames(n_video_frames, n_frames)
-    res = _check_count("resolution", resolution, 1)
-    fps, k = _check_clock(fps, oversample)
-    aa = _anti_aliasing(anti_aliasing)
+    n = resolve_video_frames(n_video_frames, n_frames)
+    res = check_count("resolution", resolution, 1)
+    fps, k = check_clock(fps, oversample)
+    aa = anti_aliasing_mode(anti_aliasing)
     poly = _checked_polydata(mesh)
     cameras, t_us = rendered_cameras(n, k), rendered_times_us(n, fps, k)
     factor = SUPERSAMPLE_FACTOR if aa == "supersample" else 1

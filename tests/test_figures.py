@@ -1,4 +1,4 @@
-"""The README's pictures (e2vlib.experiments.figures), from data_small and its committed checkpoint."""
+"""The README's pictures (e2vlib.experiments.figures), from data_small and its checkpoint."""
 
 import numpy as np
 import pytest

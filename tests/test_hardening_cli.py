@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from e2vlib.data import BuildConfig, build_dataset, save_sample
-from e2vlib.inputs import recording_input
 from e2vlib.events import EventError, make_events
+from e2vlib.inputs import recording_input
 from e2vlib.io import save_events
 from e2vlib.model import build_e2v, save_checkpoint
 

@@ -9,7 +9,7 @@ import pytest
 
 pv = pytest.importorskip("pyvista")
 
-from e2vlib import viz  # noqa: E402
+from e2vlib import _headless, viz  # noqa: E402
 from e2vlib.events import make_events  # noqa: E402
 from e2vlib.voxels import read_binvox  # noqa: E402
 

@@ -104,8 +104,9 @@ def band_summary() -> str:
 
 def doc_block() -> str:
     total = sum(band_lines().values())
-    return (f"{DOC_BEGIN}``python tools/module_map.py --write``; {total:,} lines: "
-            f"{band_summary()})::\n\n" + render(module_rows(), "    ") + f"\n\n{DOC_END}")
+    return (f"{DOC_BEGIN}``python tools/module_map.py --write``; {total:,} lines)::\n\n"
+            f"    lines per band: {band_summary()}\n\n"
+            + render(module_rows(), "    ") + f"\n\n{DOC_END}")
 
 
 def readme_block() -> str:

@@ -85,7 +85,10 @@ def run_make_data(args: argparse.Namespace) -> int:
         return 0
     check_build_folder(args.out, config)
     print(describe_build(args.out, config, shard), flush=True)
-    manifest = build_dataset(args.out, config, workers=args.workers, shard=shard)
+    from e2vlib.scale.render_cache import render_orbit_cached
+
+    manifest = build_dataset(args.out, config, workers=args.workers, shard=shard,
+                             renderer=render_orbit_cached)
     print(f"manifest: {manifest}")
     return 0
 

@@ -6,7 +6,7 @@ simulator), the video becomes events (ESIM, contrast 0.2), the events become 100
 frames of 5 ms, max-pooled down to ``frame_size``; the label is the object's 32^3 voxel
 grid. Every public name is importable from here
 (``from e2vlib.data import BuildConfig, build_dataset, E2VDataset``); the code lives in
-eleven modules, each with one job:
+ten modules, each with one job:
 
 =========================  =================================================================
 ``data.checks``            a dataset folder is untrusted input: :class:`DatasetError`,
@@ -14,7 +14,8 @@ eleven modules, each with one job:
                            :func:`check_id`, :func:`inside`, :data:`SPLITS`, the size
                            limits (:data:`MAX_FRAMES_PER_SAMPLE`, ...)
 ``data.config``            build settings: :class:`BuildConfig` (ROOT/config.json),
-                           :func:`frame_settings`, :func:`dataset_config`
+                           :func:`dataset_config`, and a model's frame settings
+                           (:func:`frame_settings`, :data:`FRAME_FIELDS`)
 ``data.commands``          the make-data command lines: :func:`make_data_command`,
                            :func:`build_command`
 ``data.plan``              which samples a build makes: :class:`SampleSpec`,
@@ -31,23 +32,20 @@ eleven modules, each with one job:
                            :func:`npz_digest`, :func:`manifest_digests`
 ``data.build``             :func:`build_dataset` (resumable, sharded),
                            :func:`check_build_folder`, :func:`describe_build`,
-                           :func:`run_jobs` (the worker pool)
-``data.shards``            joining sharded builds: :func:`merge_datasets`,
-                           :class:`MergeReport`, :class:`MergeError`
+                           :func:`run_jobs` (tqdm's process pool, :class:`JobError`)
 ``data.synthevox3d``       the authors' released layout: :func:`synthevox3d_items`,
                            :func:`load_synthevox3d_scan`, :func:`synthevox3d_time_scale`
 ``data.dataset``           reading: :class:`E2VDataset` (a PyTorch ``Dataset``),
                            :func:`verify_dataset`, :class:`Verification`
 =========================  =================================================================
 
-``checks`` imports only ``e2vlib.paper``; the others import the modules above them in this
-table (and ``e2vlib.inputs``, ``frames``, ``io``, ``events``, ``files``, ``paper``;
-``render``, ``simulate``, ``shapes`` and ``voxels`` lazily); none imports this package's
-``__init__``. Events become frames in :mod:`e2vlib.inputs` (:func:`e2vlib.inputs.orbit_input`
-for the builder and SynthEVox3D scans); its older names :func:`events_to_frames` and
-:func:`events_to_model_input` are re-exported here. ``e2vlib.scale.shards`` and
-``e2vlib.data.checks`` are the old homes of ``data.shards`` and ``data.checks``; they
-re-export them.
+``checks`` imports only ``e2vlib.paper`` and ``frames``; the others import the modules above
+them in this table (and ``e2vlib.inputs``, ``frames``, ``io``, ``events``, ``files``,
+``paper``; ``render``, ``simulate``, ``noise``, ``shapes`` and ``voxels`` lazily); none
+imports this package's ``__init__``. Events become frames in :mod:`e2vlib.inputs`
+(:func:`e2vlib.inputs.orbit_input` for the builder and SynthEVox3D scans). Joining shards
+built in separate folders is speed and scale: :func:`e2vlib.scale.shards.merge_datasets`
+(``python -m e2vlib merge-data``).
 
 Layout written by :func:`build_dataset` (``data_small/`` is one)::
 
@@ -59,8 +57,7 @@ Layout written by :func:`build_dataset` (``data_small/`` is one)::
     ROOT/shards/<i>-of-<n>.json which shards ran here (``--shard i/n`` builds only)
 
 ``sha256`` is the digest of each sample file's arrays (:func:`npz_digest`); older manifests
-without it read as before. Shards built into separate folders are joined and checked by
-:func:`merge_datasets` (``python -m e2vlib merge-data``). :class:`E2VDataset` reads that
+without it read as before. :class:`E2VDataset` reads that
 layout and the authors' released SynthEVox3D layout.
 
 Introduced in notebooks/04_building_the_dataset.ipynb.
@@ -77,7 +74,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         ],
         "checks": [
             "MANIFEST_REQUIRED", "MAX_CONFIG_BYTES", "MAX_FRAMES_PER_SAMPLE", "MAX_ID_LENGTH",
-            "MAX_MANIFEST_BYTES", "SPLITS", "WINDOWS", "check_id", "DatasetError", "inside",
+            "MAX_MANIFEST_BYTES", "SPLITS", "check_id", "DatasetError", "inside",
             "npz_problem", "read_config", "read_manifest_rows", "rebuild_hint",
         ],
         "commands": ["build_command", "make_data_command"],

@@ -38,11 +38,12 @@ DATASET_ENTRIES = ("samples", "events", GREY_DIR, "shards", "manifest.csv", "con
 before its config.json is written."""
 
 
-def _build_one(args: tuple[BuildConfig, SampleSpec, str, bool]) -> dict:
-    config, spec, root, keep_events = args
+def _build_one(args: tuple[BuildConfig, SampleSpec, str, bool, Callable | None]) -> dict:
+    config, spec, root, keep_events, renderer = args
     from e2vlib.shapes import make_shape
 
-    sample = mesh_to_sample(make_shape(spec.category, spec.seed), config, seed=spec.seed)
+    sample = mesh_to_sample(make_shape(spec.category, spec.seed), config, seed=spec.seed,
+                            renderer=renderer)
     root_path = Path(root)
     if keep_events:
         save_events(root_path / "events" / f"{spec.id}.npz", sample.events, sample.sensor_size)
@@ -129,6 +130,7 @@ def build_dataset(
     workers: int = 1,
     shard: tuple[int, int] = (0, 1),
     progress: bool = True,
+    renderer: Callable | None = None,
 ) -> Path:
     """Build (or finish building) a dataset in ``root``; return the manifest path.
 
@@ -138,7 +140,9 @@ def build_dataset(
     (into one shared folder or one folder each, joined by
     :func:`e2vlib.scale.shards.merge_datasets`); it leaves ROOT/shards/<i>-of-<n>.json so a
     merge can name a missing shard. Each run rewrites the manifest from the sample files
-    present.
+    present. ``renderer`` renders each orbit (default :func:`e2vlib.render.render_orbit`, a
+    fresh plotter per sample; ``make-data`` lends
+    :func:`e2vlib.scale.render_cache.render_orbit_cached`, which reuses one per process).
     Introduced in notebooks/04_building_the_dataset.ipynb.
 
     Examples
@@ -174,7 +178,7 @@ def build_dataset(
             tmp.write_text(json.dumps({"shard": f"{index}/{count}"}) + "\n")
     todo = [s for k, s in enumerate(specs) if k % count == index and s.split in config.splits
             and not _sample_done(root, s.id, config)]
-    jobs = [(config, s, str(root), s.id in keep) for s in todo]
+    jobs = [(config, s, str(root), s.id in keep, renderer) for s in todo]
     run_jobs(_build_one, jobs, workers, f"building {root.name}", "sample", progress,
              names=[f"sample {s.id}" for s in todo])
     return write_manifest(root, specs)

@@ -8,9 +8,9 @@ two modules:
                              :func:`input_channels`) made by one pair of functions:
                              :func:`orbit_input` (a simulated orbit's clock, what the
                              dataset builder stores) and :func:`recording_input` (a
-                             recording's own clock and sensor); the older names
-                             :func:`events_to_input`, :func:`events_to_frames` and
-                             :func:`events_to_model_input` call them; grey-frame inputs
+                             recording's own clock and sensor);
+                             :func:`events_to_input` (``orbit_input`` with the
+                             representation third); grey-frame inputs
                              (:data:`GREY_INPUTS`, :func:`grey_input`)
 ``inputs.tensors``           :class:`TensorSet` (inputs and labels of a split as tensors,
                              indexed like a dataset) and :func:`preload`

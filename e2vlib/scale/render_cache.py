@@ -22,8 +22,8 @@ import threading
 import numpy as np
 
 from e2vlib import paper
-from e2vlib.orbit import _check_count
-from e2vlib.render import _anti_aliasing, make_plotter, render_orbit
+from e2vlib.orbit import check_count
+from e2vlib.render import anti_aliasing_mode, make_plotter, render_orbit
 
 MAX_CACHED_PLOTTERS = 4
 """Off-screen plotters :func:`render_orbit_cached` keeps (one per resolution and
@@ -106,8 +106,8 @@ def render_orbit_cached(
     True
     """
     args = (mesh, n_video_frames, fps, resolution, oversample, anti_aliasing)
-    res = _check_count("resolution", resolution, 1)
-    aa = _anti_aliasing(anti_aliasing)
+    res = check_count("resolution", resolution, 1)
+    aa = anti_aliasing_mode(anti_aliasing)
     if not _LOCK.acquire(blocking=False):  # another thread renders with the kept plotters
         return render_orbit(*args, n_frames=n_frames)
     try:

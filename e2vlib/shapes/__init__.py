@@ -14,7 +14,8 @@ Module map, in the order an object is made::
     parts        random proportions and styles of parts (uniform, pick_style); joining parts
                  (union_parts)
     vehicles     builders: airplane, car, watercraft
-    furniture    builders: bench, chair, lamp, sofa, table
+    furniture    builders: bench, chair, sofa, table
+    lamps        builder: lamp, in 4 styles (table, floor, desk, pendant)
     cabinets     builder: cabinet, in 5 sub-types (chest, shelves, open_door, on_legs, hutch)
     displays     builder: display, in 5 sub-types (monitor, arm, tv, crt, all_in_one)
     speakers     builder: speaker, in 6 sub-types (box, stand, round, wedge, system, bar)

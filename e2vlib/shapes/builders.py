@@ -16,31 +16,32 @@ import numpy as np
 import trimesh
 
 from e2vlib.paper import CATEGORIES
-from e2vlib.shapes.cabinets import CABINET_KINDS, _cabinet
-from e2vlib.shapes.devices import _rifle
-from e2vlib.shapes.displays import DISPLAY_KINDS, _display
-from e2vlib.shapes.furniture import _bench, _chair, _lamp, _sofa, _table
+from e2vlib.shapes.cabinets import CABINET_KINDS, build_cabinet
+from e2vlib.shapes.devices import build_rifle
+from e2vlib.shapes.displays import DISPLAY_KINDS, build_display
+from e2vlib.shapes.furniture import build_bench, build_chair, build_sofa, build_table
+from e2vlib.shapes.lamps import build_lamp
 from e2vlib.shapes.meshes import normalize_mesh
 from e2vlib.shapes.parts import pick_style, union_parts
 from e2vlib.shapes.primitives import Parts, Rng
-from e2vlib.shapes.speakers import SPEAKER_KINDS, _speaker
-from e2vlib.shapes.telephones import TELEPHONE_KINDS, _telephone
-from e2vlib.shapes.vehicles import _airplane, _car, _watercraft
+from e2vlib.shapes.speakers import SPEAKER_KINDS, build_speaker
+from e2vlib.shapes.telephones import TELEPHONE_KINDS, build_telephone
+from e2vlib.shapes.vehicles import build_airplane, build_car, build_watercraft
 
 _BUILDERS: dict[str, Callable[[Rng], Parts]] = {
-    "airplane": _airplane,
-    "bench": _bench,
-    "cabinet": _cabinet,
-    "car": _car,
-    "chair": _chair,
-    "display": _display,
-    "lamp": _lamp,
-    "speaker": _speaker,
-    "rifle": _rifle,
-    "sofa": _sofa,
-    "table": _table,
-    "telephone": _telephone,
-    "watercraft": _watercraft,
+    "airplane": build_airplane,
+    "bench": build_bench,
+    "cabinet": build_cabinet,
+    "car": build_car,
+    "chair": build_chair,
+    "display": build_display,
+    "lamp": build_lamp,
+    "speaker": build_speaker,
+    "rifle": build_rifle,
+    "sofa": build_sofa,
+    "table": build_table,
+    "telephone": build_telephone,
+    "watercraft": build_watercraft,
 }
 
 SUB_TYPES: dict[str, dict[str, float]] = {

@@ -34,7 +34,7 @@ from e2vlib.shapes.primitives import (
 )
 
 CABINET_KINDS = {"chest": 0.24, "shelves": 0.22, "open_door": 0.2, "on_legs": 0.16, "hutch": 0.18}
-"""Cabinet sub-types and their probabilities (the first draw of :func:`_cabinet`)."""
+"""Cabinet sub-types and their probabilities (the first draw of :func:`build_cabinet`)."""
 
 
 def _fronts(rng: Rng, w: float, fy: float, z0: float, h: float) -> Parts:
@@ -320,5 +320,5 @@ _BUILD = {
 }
 
 
-def _cabinet(rng: Rng) -> Parts:
+def build_cabinet(rng: Rng) -> Parts:
     return _BUILD[pick_style(rng, CABINET_KINDS)](rng)

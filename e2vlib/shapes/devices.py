@@ -25,7 +25,7 @@ from e2vlib.shapes.primitives import (
 )
 
 
-def _rifle(rng: Rng) -> Parts:
+def build_rifle(rng: Rng) -> Parts:
     # muzzle towards -y, butt towards +y
     parts: Parts = []
     kind = pick_style(rng, {"sniper": 0.3, "assault": 0.4, "shotgun": 0.3})

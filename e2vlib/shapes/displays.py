@@ -32,7 +32,7 @@ from e2vlib.shapes.primitives import (
 )
 
 DISPLAY_KINDS = {"monitor": 0.24, "arm": 0.18, "tv": 0.22, "crt": 0.18, "all_in_one": 0.18}
-"""Display sub-types and their probabilities (the first draw of :func:`_display`)."""
+"""Display sub-types and their probabilities (the first draw of :func:`build_display`)."""
 
 
 def _screen(rng: Rng, w: float, h: float, t: float, z0: float, curved: bool) -> Parts:
@@ -303,5 +303,5 @@ _BUILD = {
 }
 
 
-def _display(rng: Rng) -> Parts:
+def build_display(rng: Rng) -> Parts:
     return _BUILD[pick_style(rng, DISPLAY_KINDS)](rng)

@@ -40,7 +40,7 @@ SPEAKER_KINDS = {
     "system": 0.16,
     "bar": 0.14,
 }
-"""Speaker sub-types and their probabilities (the first draw of :func:`_speaker`)."""
+"""Speaker sub-types and their probabilities (the first draw of :func:`build_speaker`)."""
 
 
 def _enclosure(
@@ -279,5 +279,5 @@ _BUILD = {
 }
 
 
-def _speaker(rng: Rng) -> Parts:
+def build_speaker(rng: Rng) -> Parts:
     return _BUILD[pick_style(rng, SPEAKER_KINDS)](rng)

@@ -32,7 +32,7 @@ from e2vlib.shapes.primitives import (
 )
 
 TELEPHONE_KINDS = {"mobile": 0.24, "feature": 0.12, "flip": 0.16, "desk": 0.24, "cordless": 0.24}
-"""Telephone sub-types and their probabilities (the first draw of :func:`_telephone`)."""
+"""Telephone sub-types and their probabilities (the first draw of :func:`build_telephone`)."""
 
 
 def _slab(
@@ -303,5 +303,5 @@ _BUILD = {
 }
 
 
-def _telephone(rng: Rng) -> Parts:
+def build_telephone(rng: Rng) -> Parts:
     return _BUILD[pick_style(rng, TELEPHONE_KINDS)](rng)

@@ -25,7 +25,7 @@ from e2vlib.shapes.primitives import (
 )
 
 
-def _airplane(rng: Rng) -> Parts:
+def build_airplane(rng: Rng) -> Parts:
     length = 1.0
     r = uniform(rng, 0.04, 0.075)
     nose = uniform(rng, 0.08, 0.18)
@@ -143,7 +143,7 @@ def _airplane(rng: Rng) -> Parts:
     return parts
 
 
-def _car(rng: Rng) -> Parts:
+def build_car(rng: Rng) -> Parts:
     kind = pick_style(
         rng, {"sedan": 0.3, "hatchback": 0.2, "suv": 0.2, "pickup": 0.15, "sports": 0.15}
     )
@@ -249,7 +249,7 @@ def _car(rng: Rng) -> Parts:
     return parts
 
 
-def _watercraft(rng: Rng) -> Parts:
+def build_watercraft(rng: Rng) -> Parts:
     kind = pick_style(
         rng, {"ship": 0.3, "sailboat": 0.25, "speedboat": 0.2, "canoe": 0.1, "cargo": 0.15}
     )

@@ -31,9 +31,8 @@ lives in seven modules, each with one job:
 
 ``style``, ``animation`` and ``widgets`` import no e2vlib module; ``plots`` imports
 ``style``, ``e2vlib.events``, ``frames`` and ``metrics``; ``scenes`` imports ``style``,
-``e2vlib._headless`` (VTK's environment: :func:`headless_opengl_window` and
-:func:`offline_wasm_bundle`, shared with :mod:`e2vlib.render` and re-exported here),
-``render`` (``to_polydata``), ``metrics`` and ``files``; ``recording`` imports ``plots``,
+``e2vlib._headless`` (VTK's environment for headless machines and notebooks, shared with
+:mod:`e2vlib.render`), ``metrics`` and ``files``; ``recording`` imports ``plots``,
 ``scenes``, ``e2vlib.orbit`` and ``render``; ``export`` imports ``scenes``, ``files`` and
 ``voxels``; none imports this package's ``__init__``. Importing the package loads
 matplotlib but not pyvista, ipywidgets or torch (they load on first use). The package

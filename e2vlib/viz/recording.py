@@ -14,7 +14,7 @@ import numpy as np
 
 from e2vlib import paper
 from e2vlib.events import check_sensor_size, validate
-from e2vlib.orbit import VIEW_ANGLE_DEG, _video_frames, camera_axes, orbit_cameras
+from e2vlib.orbit import VIEW_ANGLE_DEG, camera_axes, orbit_cameras, resolve_video_frames
 from e2vlib.viz.plots import subsample_events
 from e2vlib.viz.scenes import new_plotter
 from e2vlib.viz.style import MESH_COLOR, OFF_COLOR, ON_COLOR
@@ -170,7 +170,7 @@ def view_orbit(mesh, n_video_frames: int = paper.N_VIDEO_FRAMES, fps: float = pa
     """
     import pyvista as pv
 
-    cams = orbit_cameras(_video_frames(n_video_frames, n_frames))
+    cams = orbit_cameras(resolve_video_frames(n_video_frames, n_frames))
     n = len(cams)
     if not isinstance(every, (int, np.integer)) or isinstance(every, bool) or every < 1:
         raise ValueError(f"every must be a positive integer, got {every!r}")

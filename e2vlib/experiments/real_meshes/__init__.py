@@ -6,9 +6,10 @@ GPL-2.0, read where the package installs them and never shipped). A reviewed tab
 ``data_small/real/catalogue.csv``, keeps 241 of them (23 aircraft) in the paper's 13
 categories; each is loaded in the project's frame (z up, front -y, bounding box centred,
 longest side 1) and built into a test sample by the data_small protocol, so models trained
-on data_small read it as they read its test split; :mod:`e2vlib.experiments.real_study` scores them.
-Every public name is importable from here (``from e2vlib.experiments.real_meshes import read_mapping,
-load_entry_mesh``); the code lives in five modules, each with one job:
+on data_small read it as they read its test split; :mod:`e2vlib.experiments.real_study`
+scores them. Every public name is importable from here
+(``from e2vlib.experiments.real_meshes import read_mapping, load_entry_mesh``); the code lives
+in five modules, each with one job:
 
 ==========================  ================================================================
 ``real_meshes.catalogue``   the installed libraries: :func:`read_catalogue` of one ``.sh3f``

@@ -81,9 +81,11 @@ crrcsim-data')
 def _build_real_one(args: tuple) -> str:
     config, mapped, entry, root, folder = args
     from e2vlib.data import mesh_to_sample, save_sample
+    from e2vlib.scale.render_cache import render_orbit_cached
 
     mesh = load_entry_mesh(entry, folder, pose=mapped.pose)
-    sample = mesh_to_sample(mesh, config, seed=real_sample_seed(config.seed, mapped.id))
+    sample = mesh_to_sample(mesh, config, seed=real_sample_seed(config.seed, mapped.id),
+                            renderer=render_orbit_cached)
     save_sample(Path(root) / "samples" / f"{mapped.id}.npz", sample.frames, sample.voxels,
                 len(sample.events))
     return mapped.id

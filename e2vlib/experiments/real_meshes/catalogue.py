@@ -374,11 +374,10 @@ def crrcsim_entry(file_name: str, crrcsim_folder: str | os.PathLike = CRRCSIM_DI
     --------
     >>> crrcsim_entry("plane.ac", "/objects").name
     'plane'
-    >>> crrcsim_entry("../plane.ac")
+    >>> crrcsim_entry("../plane.ac")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.experiments.real_meshes.catalogue.RealMeshError: crrcsim-data entry '../plane.ac' must be a \
-plain .ac file name
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: crrcsim-data entry '../plane.ac' ...
     """
     path = Path(crrcsim_folder) / file_name
     if Path(file_name).name != file_name or path.suffix != ".ac":

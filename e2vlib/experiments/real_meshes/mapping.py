@@ -88,9 +88,9 @@ def check_mapping(rows: Iterable[dict], where: str = "catalogue.csv") -> list[Ma
     >>> check_mapping([row, {**row, "category": "tables", "keep": "maybe"}])
     Traceback (most recent call last):
     ...
-    e2vlib.experiments.real_meshes.catalogue.RealMeshError: catalogue.csv: 3 bad row(s): line 3: duplicate \
-id 'table_bs0_box'; line 3: category 'tables' is not one of the paper's (airplane, bench, \
-cabinet, car, chair, display, lamp, speaker, rifle, sofa, table, telephone, watercraft); \
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: catalogue.csv: 3 bad row(s): line 3: \
+duplicate id 'table_bs0_box'; line 3: category 'tables' is not one of the paper's (airplane, \
+bench, cabinet, car, chair, display, lamp, speaker, rifle, sofa, table, telephone, watercraft); \
 line 3: keep must be yes or no, got 'maybe'
     """
     problems, out, seen = [], [], set()
@@ -188,8 +188,8 @@ def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE
     ... # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.experiments.real_meshes.catalogue.RealMeshError: 1 mapped entries are not in the installed \
-libraries (table_bs0_box); the package version differs from ...
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: 1 mapped entries are not in the \
+installed libraries (table_bs0_box); the package version differs from ...
     """
     mapped = list(mapped)
     catalogues = {}
