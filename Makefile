@@ -45,7 +45,7 @@ notebooks: $(STAMP)
 	$(PYTEST) tests/test_lessons.py --durations=0
 
 imports: $(STAMP)
-	$(VENV)/bin/lint-imports
+	$(VENV)/bin/lint-imports --no-cache
 
 # Lessons 00 and 08 in a real JupyterLab, driven by headless Chromium (Debian's chromium at
 # /usr/bin/chromium) through Playwright: every cell runs without error, the 3D views draw, the

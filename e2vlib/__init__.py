@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 20,174 lines)::
+Module map (``python tools/module_map.py --write``; 20,171 lines)::
 
-    lines per band: core 13,916 · speed and scale 1,197 · lab 3,817 · command line 1,244
+    lines per band: core 13,915 · speed and scale 1,197 · lab 3,816 · command line 1,243
 
     _headless.py           106  VTK's environment for headless machines and notebooks, set ...
     data/                 2003  Datasets
@@ -50,13 +50,13 @@ Module map (``python tools/module_map.py --write``; 20,174 lines)::
     io.py                  536  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1727  The E2V model
+    model/                1726  The E2V model
       checkpoint.py        336  E2V checkpoint files
       config.py            287  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          274  E2V's encoders
       integrity.py         151  Is a checkpoint intact
-      networks.py          252  The E2V network
+      networks.py          251  The E2V network
       summary.py           182  Size and memory of an E2V
     noise.py               215  Sensor noise of a DVS pixel, added to the events of simulate
     orbit.py               444  The camera orbit's clock and geometry, numpy only
@@ -97,7 +97,7 @@ Module map (``python tools/module_map.py --write``; 20,174 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          401  Training at scale
-    experiments/          3817  The lab
+    experiments/          3816  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
@@ -105,7 +105,7 @@ Module map (``python tools/module_map.py --write``; 20,174 lines)::
       loader.py            182  A study protocol's splits as model inputs, kept in memory ...
       protocol.py          256  A study's protocol
       provenance.py         58  Where a record was made
-      real_meshes/        1130  Real third-party meshes of the paper's categories, from ...
+      real_meshes/        1129  Real third-party meshes of the paper's categories, from ...
         ac3d.py            127  A small reader of AC3D (.ac) models, the format of Debian's ...
         build.py           163  Building the real-mesh test set
         catalogue.py       388  Debian's Sweet Home 3D furniture libraries
@@ -118,7 +118,7 @@ Module map (``python tools/module_map.py --write``; 20,174 lines)::
       shipping.py           84  Ship one recorded run's model
       studies.py           170  The studies
       summary.py           120  A study's results as numbers
-    __main__.py             78  Command line
+    __main__.py             77  Command line
     cli/                  1166  The command line's parts: python -m e2vlib (__main__) runs them
       checks.py            274  Checks of command-line values before any work starts
       data_commands.py     162  The dataset commands

@@ -11,9 +11,9 @@ import numpy as np
 import torch
 
 from e2vlib.data import E2VDataset
+from e2vlib.inputs import preload
 from e2vlib.metrics import category_means, iou
 from e2vlib.train import category_mean_shapes
-from e2vlib.inputs import preload
 
 root, out = sys.argv[1], sys.argv[2]
 train, test = preload(E2VDataset(root, "train")), preload(E2VDataset(root, "test"))

@@ -427,7 +427,8 @@ def test_corrected_rerun_after_a_refused_make_data_builds(capsys, tmp_path):
 
 
 def test_make_data_command_spells_out_the_config_it_came_from():
-    from e2vlib.__main__ import _build_config, build_parser
+    from e2vlib.__main__ import build_parser
+    from e2vlib.cli.data_commands import build_config
     from e2vlib.data import BuildConfig, make_data_command
 
     for config in (BuildConfig(categories=("table", "chair"), per_category=3, resolution=32,
@@ -440,7 +441,7 @@ def test_make_data_command_spells_out_the_config_it_came_from():
         command = make_data_command(config, "out_dir", "1/4").split()
         assert command[:4] == ["python", "-m", "e2vlib", "make-data"]
         args = build_parser().parse_args(command[3:])
-        assert _build_config(args) == config and (args.out, args.shard) == ("out_dir", "1/4")
+        assert build_config(args) == config and (args.out, args.shard) == ("out_dir", "1/4")
 
 
 @pytest.mark.parametrize("args, says", [

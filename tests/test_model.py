@@ -247,14 +247,19 @@ def test_config_dict_round_trip():
 def test_public_names_come_from_the_submodules_and_paper_constants():
     import importlib
 
+    import e2vlib.model
     from e2vlib.model import checkpoint, networks
 
     summary_module = importlib.import_module("e2vlib.model.summary")
 
     assert networks.E2V is build_e2v("tiny").__class__
-    for cls in (BasicBlock, Bottleneck, ResNetEncoder, Frames2dEncoder, Frames2dGRUEncoder,
-                Bridge, UNetDecoder):
-        assert getattr(networks, cls.__name__) is cls
+    homes = {"encoders": (BasicBlock, Bottleneck, ResNetEncoder, Frames2dEncoder,
+                          Frames2dGRUEncoder), "decoder": (Bridge, UNetDecoder)}
+    for home, classes in homes.items():
+        for cls in classes:  # one home each, listed once by the package face
+            assert cls.__module__ == f"e2vlib.model.{home}"
+            assert getattr(e2vlib.model, cls.__name__) is cls
+            assert cls.__name__ not in networks.__all__
     assert checkpoint.load_checkpoint.__module__ == "e2vlib.model.checkpoint"
     assert summary_module.layer_table is layer_table
     # one definition of the paper's numbers

@@ -40,8 +40,7 @@ This module holds :class:`E2V`, :func:`build_e2v` and :func:`count_parameters`; 
 live in their own modules: :mod:`e2vlib.model.config` (:class:`E2VConfig`, :data:`PRESETS`
 and the reasons for their numbers), :mod:`e2vlib.model.encoders` (the ResNet trunks and
 blocks, the two per-frame encoders) and :mod:`e2vlib.model.decoder` (:class:`Bridge`,
-:class:`UNetDecoder`). Every name they define stays importable from here, as before they
-were split out.
+:class:`UNetDecoder`); :mod:`e2vlib.model` lists every name.
 
 Introduced in notebooks/05_the_e2v_model.ipynb.
 """

@@ -36,8 +36,7 @@ in five modules, each with one job:
 Imports run one way: ``catalogue`` imports no other module of this package; ``ac3d``
 imports ``catalogue``; ``meshes`` those two; ``mapping`` ``catalogue`` and ``meshes``
 (:data:`POSES`); ``build`` all but ``ac3d`` and, when it builds, :mod:`e2vlib.data`; none
-imports this ``__init__``. Until the split this package was one module,
-``e2vlib/real_meshes.py``; every name it had is still importable from here.
+imports this ``__init__``.
 
 Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.json).
 """
