@@ -319,6 +319,7 @@ def test_slim_checkpoint_keeps_the_training_loss(tmp_path):
     assert ckpt["config"]["in_channels"] == 2
 
 
+@pytest.mark.slow  # end to end, seconds: runs in make test-all
 def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
     """best.pt scores, on data_small's test split, exactly the test IoU@0.3 its capstone
     record holds, with the record's threshold, data settings and provenance."""

@@ -157,6 +157,7 @@ def test_missing_and_foreign_folders(tmp_path):
         E2VDataset(tmp_path, "train")
 
 
+@pytest.mark.slow  # end to end, seconds: runs in make test-all
 def test_data_small_regenerates_identically(tmp_path):
     """A slice of the committed data_small/, rebuilt from its config, is bit-identical."""
     root = REPO / "data_small"

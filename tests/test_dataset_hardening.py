@@ -615,6 +615,7 @@ KILLED_BUILD = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow  # end to end, seconds: runs in make test-all
 def test_a_build_killed_mid_sample_resumes_into_a_verified_dataset(built, tmp_path):
     root, marker = tmp_path / "killed", tmp_path / "marker"
     process = subprocess.Popen([sys.executable, "-c", KILLED_BUILD, str(root), str(marker)],

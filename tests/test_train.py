@@ -181,6 +181,7 @@ def _ddp_worker(rank, world, init_file, out_dir):
     dist.destroy_process_group()
 
 
+@pytest.mark.slow  # end to end, seconds: runs in make test-all
 def test_data_parallel_replicas_stay_equal(tmp_path):
     torch.multiprocessing.spawn(_ddp_worker, args=(2, str(tmp_path / "init"), str(tmp_path)),
                                 nprocs=2, join=True)

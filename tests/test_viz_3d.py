@@ -194,6 +194,7 @@ def test_new_plotter_add_voxels_and_aim_at_object_compose_a_scene(closing):
         viz.aim_at_object(plotter, zoom=0)
 
 
+@pytest.mark.slow  # end to end, seconds: runs in make test-all
 def test_plotters_made_headless_print_no_x_server_warning(capfd):
     """VTK probes for an X server before falling back to EGL and says so on stderr
     ("bad X server connection"); viz picks the headless window first.
