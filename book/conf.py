@@ -20,8 +20,22 @@ sys.path.insert(0, str(ROOT / "book"))
 from pages import write_pages  # noqa: E402
 
 QUICK = os.environ.get("E2V_QUICK") == "1"
-os.environ["PYVISTA_JUPYTER_BACKEND"] = "static"  # 3D views as pictures in the page
-os.environ.setdefault("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+INLINE_BACKEND = "module://matplotlib_inline.backend_inline"
+"""The plotting backend whose figures land in a lesson's page."""
+
+
+def kernel_environment(environ=os.environ) -> None:
+    """Set what the lessons' kernels inherit from this process: 3D views as pictures in the
+    page, and figures by the inline backend, replacing any ``MPLBACKEND`` of the shell (a
+    server's ``Agg`` would build a book whose lessons have no figures, silently)."""
+    environ["PYVISTA_JUPYTER_BACKEND"] = "static"
+    if environ.get("MPLBACKEND", INLINE_BACKEND) != INLINE_BACKEND:
+        print(f"book: MPLBACKEND={environ['MPLBACKEND']} of the shell replaced by the inline "
+              "backend for the lessons' kernels", file=sys.stderr)
+    environ["MPLBACKEND"] = INLINE_BACKEND
+
+
+kernel_environment()
 write_pages(ROOT / "book" / "_generated")
 
 project = "e2v notebooks"

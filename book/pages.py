@@ -79,7 +79,7 @@ def map_page(out: Path) -> str:
             "| --- | --- | --- | --- | --- |"]
     for h in headers:
         needs = ", ".join(h["prerequisites"]) or "none"
-        goals = "; ".join(h["goals"][:3])
+        goals = "; ".join(g.rstrip(";.") for g in h["goals"][:3])
         rows.append(f"| [{h['title']}](../../notebooks/{h['name']}) | {needs} | {h['quick']} | "
                     f"{h['full']} | {goals} |")
     alt = "; ".join(f"{h['number']} needs {' and '.join(h['prerequisites'])}"

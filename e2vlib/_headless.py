@@ -89,7 +89,10 @@ def offline_wasm_bundle() -> str | None:
     ...     offline_wasm_bundle()  # the user's choice stands
     '/my/own/wasm'
     """
+    empty = Path(tempfile.gettempdir()) / "e2v-no-vtk-wasm"
     if _WASM_OVERRIDE in os.environ:
+        if os.environ[_WASM_OVERRIDE] == str(empty):
+            _quiet_about(empty)
         return os.environ[_WASM_OVERRIDE]
     try:
         from trame_vtklocal.module import wasm_serve_path
@@ -100,7 +103,26 @@ def offline_wasm_bundle() -> str | None:
     version = vtkVersion().GetVTKVersion()
     if has_required_files(Path(wasm_serve_path) / "wasm32" / version, version):
         return None  # downloaded before (or bundled): let trame use it
-    empty = Path(tempfile.gettempdir()) / "e2v-no-vtk-wasm"
     empty.mkdir(exist_ok=True)
     os.environ[_WASM_OVERRIDE] = str(empty)
+    _quiet_about(empty)
     return str(empty)
+
+
+def _quiet_about(folder: Path) -> None:
+    """Drop trame-vtklocal's ``Using wasm_dir: <folder>`` line for our own empty folder (it
+    would print above every 3D view); every other line it prints, and the same line for a
+    folder the user chose, still appear."""
+    import builtins
+
+    try:
+        from trame_vtklocal.module import wasm
+    except ImportError:
+        return
+    ours = f"Using wasm_dir: {folder}"
+
+    def print_unless_ours(*args, **kwargs) -> None:
+        if not (len(args) == 1 and str(args[0]) == ours):
+            builtins.print(*args, **kwargs)
+
+    wasm.print = print_unless_ours

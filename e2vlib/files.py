@@ -6,12 +6,31 @@ can use it. Introduced in notebooks/01_events.ipynb.
 
 from __future__ import annotations
 
+import errno
 import os
 import re
+import stat
 import uuid
 from pathlib import Path
 
 _TMP_PATTERN = r"^\.{name}\.(\d+)\.[0-9a-f]{{8}}\.tmp"
+
+NAME_MAX = 255
+"""The longest file name, in bytes, that common file systems take (ext4, APFS, NTFS). A
+temporary name of :class:`atomic_path` that would be longer names the target by a digest."""
+
+
+def _temp_parts(path: Path) -> tuple[str, str]:
+    """``(stem, ending)`` of the temporary names of ``path``: its own name and full ending
+    when ``.{name}.{pid}.{8 hex}.tmp{ending}`` fits :data:`NAME_MAX` for any pid, else the
+    first 16 hex digits of the name's sha256 and its last ending (at most 16 characters)."""
+    import hashlib
+
+    ending = "".join(path.suffixes)
+    if len(f".{path.name}.{'9' * 10}.{'f' * 8}.tmp{ending}".encode()) <= NAME_MAX:
+        return path.name, ending
+    suffix = path.suffix if len(path.suffix) <= 16 else ""
+    return hashlib.sha256(path.name.encode()).hexdigest()[:16], suffix
 
 
 def _pid_alive(pid: int) -> bool:
@@ -43,13 +62,63 @@ def stale_temp_files(path: str | os.PathLike) -> list[Path]:
     path = Path(path)
     if not path.parent.is_dir():
         return []
-    pattern = re.compile(_TMP_PATTERN.format(name=re.escape(path.name)))
+    pattern = re.compile(_TMP_PATTERN.format(name=re.escape(_temp_parts(path)[0])))
     stale = []
     for candidate in path.parent.iterdir():
         match = pattern.match(candidate.name)
         if match and not _pid_alive(int(match.group(1))):
             stale.append(candidate)
     return sorted(stale)
+
+
+def _kind_of(mode: int) -> str:
+    """What a non-regular file is, in words."""
+    for test, words in ((stat.S_ISFIFO, "a FIFO (named pipe)"),
+                        (stat.S_ISCHR, "a character device"),
+                        (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return words
+    return "not a regular file"
+
+
+def input_file(path: str | os.PathLike, what: str) -> Path:
+    """``path`` as a Path if it is a regular file (or a link to one), else an error that
+    says what it is instead, naming ``what`` (``"mesh file"``, ``"checkpoint"``...).
+
+    FileNotFoundError for a missing path or a link to nothing, IsADirectoryError for a
+    folder, ValueError for a FIFO, a device, a socket or a symlink loop: reading those
+    would block, never end, or fail with a misleading "not found".
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> input_file(folder, "mesh file")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    IsADirectoryError: mesh file ... is a directory, not a file; give a file inside it
+    >>> input_file("/dev/zero", "event file")
+    Traceback (most recent call last):
+    ...
+    ValueError: event file /dev/zero is a character device, not a regular file; give a file
+    """
+    path = Path(path)
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        broken = " (a symbolic link to nothing)" if path.is_symlink() else ""
+        raise FileNotFoundError(f"{what} {path} does not exist{broken}; check the path") from None
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            raise ValueError(f"{what} {path} is a symbolic link loop, not a file; point the "
+                             "link at a file") from None
+        raise
+    if stat.S_ISDIR(mode):
+        raise IsADirectoryError(f"{what} {path} is a directory, not a file; give a file "
+                                "inside it")
+    if not stat.S_ISREG(mode):
+        raise ValueError(f"{what} {path} is {_kind_of(mode)}, not a regular file; give a file")
+    return path
 
 
 class atomic_path:  # noqa: N801  (used like a function: ``with atomic_path(p) as tmp``)
@@ -82,11 +151,11 @@ class atomic_path:  # noqa: N801  (used like a function: ``with atomic_path(p) a
         for stale in stale_temp_files(self.path):
             stale.unlink(missing_ok=True)
         # A unique name in the same folder (so the rename is atomic), keeping the full
-        # ending (".txt.gz", ".npz") for libraries that look at it. The file is not
-        # created here, so the writer creates it with the usual permissions.
-        self.tmp = self.path.parent / (
-            f".{self.path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-            + "".join(self.path.suffixes))
+        # ending (".txt.gz", ".npz") for libraries that look at it; a name too long for
+        # that is replaced by its digest (_temp_parts). The file is not created here, so
+        # the writer creates it with the usual permissions.
+        stem, ending = _temp_parts(self.path)
+        self.tmp = self.path.parent / f".{stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp{ending}"
         return self.tmp
 
     def __exit__(self, exc_type, exc, tb) -> None:

@@ -52,7 +52,7 @@ from e2vlib.events import (
     times_to_us,
     validate,
 )
-from e2vlib.files import atomic_path
+from e2vlib.files import atomic_path, input_file
 
 FORMATS = (".npz", ".txt", ".txt.gz", ".h5", ".hdf5", ".aedat4")
 
@@ -80,6 +80,55 @@ _WHAT_KIND_IS = {
 EXACT_TEXT_SECONDS = 2.0**50 / 1e6
 """Text times below this many seconds (about 35 years) are exact through float64; larger
 ones are re-read digit by digit (:func:`_decimal_seconds_to_us`)."""
+
+
+MAX_EVENT_BYTES: int = 4 * 2**30
+"""Most bytes (4 GiB) the event columns of one file (x, y, t, p, or v2e's table) may
+declare: about 300 million events as e2vlib writes them (13 bytes each), three times the
+100 million that load in about 3 GiB. The declared shapes and dtypes are checked before
+anything is read, so a few MB of compressed zeros cannot ask for gigabytes."""
+
+_COLUMNS = ("x", "y", "t", "p")
+
+
+def _check_declared(path: Path, declared: dict[str, tuple[tuple[int, ...], np.dtype]]) -> None:
+    """Refuse columns (name -> declared shape, dtype) that are not plain numbers or that
+    together take more than :data:`MAX_EVENT_BYTES`, before they are read."""
+    total = 0.0
+    for name, (shape, dtype) in declared.items():
+        if dtype.kind not in "biuf" or dtype.fields is not None or dtype.subdtype is not None:
+            raise ValueError(f"{path}: the array {name!r} holds {dtype}, not plain numbers; "
+                             "write the file again with e2vlib.io.save_events")
+        total += float(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+    if total > MAX_EVENT_BYTES:
+        raise ValueError(f"{path}: the event arrays declare {total / 2**30:.3g} GiB "
+                         f"({', '.join(f'{k} {list(v[0])}' for k, v in declared.items())}), "
+                         f"more than io.MAX_EVENT_BYTES = {MAX_EVENT_BYTES / 2**30:.0f} GiB "
+                         "(about 300 M events); split the recording into shorter files")
+
+
+def _npz_headers(path: Path, names: tuple[str, ...]) -> dict[str, tuple[tuple[int, ...],
+                                                                      np.dtype]]:
+    """Declared ``(shape, dtype)`` of the ``.npy`` members ``names`` of a zip, read from
+    their headers only (members that are missing are left out: the reader reports them)."""
+    fmt = np.lib.format
+    headers = {}
+    with zipfile.ZipFile(path) as archive:
+        present = set(archive.namelist())
+        for name in names:
+            if f"{name}.npy" not in present:
+                continue
+            with archive.open(f"{name}.npy") as member:
+                version = fmt.read_magic(member)
+                read = {(1, 0): fmt.read_array_header_1_0,
+                        (2, 0): fmt.read_array_header_2_0}.get(version)
+                if read is None:
+                    raise ValueError(f"{path}: the array {name!r} is in .npy format version "
+                                     f"{version}, which e2vlib does not read; write the file "
+                                     "again with e2vlib.io.save_events")
+                shape, _, dtype = read(member)
+            headers[name] = (tuple(shape), np.dtype(dtype))
+    return headers
 
 
 def _format_of(path: Path) -> str:
@@ -165,8 +214,7 @@ def load_events(path: str | os.PathLike) -> tuple[np.ndarray, tuple[int, int]]:
     if path.is_dir():
         raise IsADirectoryError(f"{path} is a directory, not an event file; give a file "
                                 f"inside it ({', '.join(FORMATS)})")
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such event file")
+    input_file(path, "event file")
     _check_content(path, fmt)
     reader = {
         ".npz": _read_npz,
@@ -246,6 +294,13 @@ def _write_npz(path: Path, events: np.ndarray, sensor_size: tuple[int, int]) -> 
 
 def _read_npz(path: Path) -> tuple[np.ndarray, tuple[int, int]]:
     try:
+        declared = _npz_headers(path, (*_COLUMNS, "sensor_size"))
+        size = declared.pop("sensor_size", ((2,), np.dtype(np.int64)))
+        _check_declared(path, declared)
+        if np.prod(size[0], dtype=np.float64) > 16:
+            raise ValueError(f"{path}: the array sensor_size has shape {list(size[0])}, not "
+                             "(2,); write it again with save_events(path, events, "
+                             "(width, height))")
         with np.load(path, allow_pickle=False) as data:
             missing = {"x", "y", "t", "p", "sensor_size"} - set(data.files)
             if missing:
@@ -454,6 +509,8 @@ def _time_unit(attrs, t: np.ndarray) -> str:
 def _read_offset_us(node) -> int:
     """DSEC's ``t_offset`` in microseconds: its own ``t_unit`` attribute, else seconds for a
     float and microseconds for an integer (DSEC stores int64 microseconds)."""
+    if getattr(node, "size", 1) != 1:  # checked before reading: it could declare gigabytes
+        raise ValueError(f"t_offset must be a single number, got shape {node.shape}")
     value = np.asarray(node[()])
     if value.size != 1:
         raise ValueError(f"t_offset must be a single number, got shape {value.shape}")
@@ -477,11 +534,19 @@ def _read_hdf5(path: Path) -> tuple[np.ndarray, tuple[int, int]]:
                 missing = {"x", "y", "t", "p"} - set(node.keys())
                 if missing:
                     raise ValueError(f"{path}: group 'events' lacks datasets {sorted(missing)}")
-                x, y, t, p = (node[k][()] for k in ("x", "y", "t", "p"))
+                columns = {k: node[k] for k in _COLUMNS}
+                not_arrays = [k for k, v in columns.items() if not isinstance(v, h5py.Dataset)]
+                if not_arrays:
+                    raise ValueError(f"{path}: events/{not_arrays[0]} is a group, not a "
+                                     "dataset of numbers")
+                _check_declared(path, {f"events/{k}": (v.shape, v.dtype)
+                                       for k, v in columns.items()})
+                x, y, t, p = (columns[k][()] for k in _COLUMNS)
                 attrs = {**dict(f.attrs), **dict(node.attrs)}
                 if "t_offset" in f:  # DSEC stores times relative to t_offset
                     offset_us = _read_offset_us(f["t_offset"])
             elif isinstance(node, h5py.Dataset) and node.ndim == 2 and node.shape[1] == 4:
+                _check_declared(path, {"events": (node.shape, node.dtype)})
                 table = node[()]  # v2e: rows of (t, x, y, p)
                 t, x, y, p = table.T
                 attrs = {**dict(f.attrs), **dict(node.attrs)}

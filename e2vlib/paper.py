@@ -120,9 +120,17 @@ LEARNING_RATE: float = 1e-5
 OPTIMIZER: str = "AdamW"
 """Optimizer (Sec. V); the loss is mean binary cross-entropy over all voxels (Eq. in Sec. III-C)."""
 
+ADAMW_SETTINGS_STATED: tuple[str, ...] = ("lr",)
+"""The AdamW settings the paper states (Sec. V): the learning rate only; its weight decay, betas
+and schedule are not given (every recipe's weight decay is ours)."""
+
 # ----------------------------------------------------------------------------- results
 FSCORE_DISTANCE_REPORTED: float = 0.20
 """The F-score distance the paper reports, "F-Score@20 %" (Sec. V: F@1 % "drops to zero")."""
+
+GALLERY_FIGURE: int = 4
+"""The paper's figure of test reconstructions (Fig. 4: a "Ground Truth" row above an "E2V Result"
+row, one column per category; Fig. 1 is the architecture, Figs. 2-3 the camera setup)."""
 
 
 def _table(values: str, overall: float) -> dict[str, float]:

@@ -23,6 +23,7 @@ from trimesh.voxel import runlength
 
 from e2vlib import paper
 from e2vlib.files import atomic_path
+from e2vlib.shapes.meshes import MAX_MESH_COORDINATE, mesh_name
 
 # A tiny, irrational-looking offset of the ray positions (in voxels) so that no ray passes
 # exactly through a mesh edge or vertex placed on a "nice" coordinate (e.g. the diagonal of
@@ -50,8 +51,13 @@ def _check_mesh(mesh: trimesh.Trimesh) -> np.ndarray:
         )
     if not isinstance(mesh, trimesh.Trimesh):
         raise ValueError(f"voxelize needs a trimesh.Trimesh, got {type(mesh).__name__}")
+    name = mesh_name(mesh)
     if len(mesh.faces) == 0:
-        raise ValueError("voxelize got a mesh with no faces; nothing to voxelize")
+        raise ValueError(f"voxelize got {name} with no faces; nothing to voxelize")
+    if len(mesh.faces) > MAX_FACES:
+        raise ValueError(f"{name} has {len(mesh.faces)} faces, more than voxels.MAX_FACES = "
+                         f"{MAX_FACES}; simplify it first (e.g. "
+                         "mesh.simplify_quadric_decimation, or in Blender)")
     faces, n_vertices = np.asarray(mesh.faces), len(mesh.vertices)
     if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
         raise ValueError(f"mesh faces must be an (F, 3) integer array, got {faces.dtype} "
@@ -62,8 +68,55 @@ def _check_mesh(mesh: trimesh.Trimesh) -> np.ndarray:
                          "or load the mesh again with e2vlib.shapes.load_mesh")
     tri = np.asarray(mesh.vertices, dtype=np.float64)[faces]
     if not np.all(np.isfinite(tri)):
-        raise ValueError("mesh has NaN/inf vertex coordinates; clean the mesh first")
+        raise ValueError(f"{name} has NaN/inf vertex coordinates; clean the mesh first")
+    largest = float(np.abs(tri).max())
+    if largest > MAX_MESH_COORDINATE:
+        raise ValueError(f"{name} has vertex coordinates up to {largest:.3g} m, beyond "
+                         f"shapes.MAX_MESH_COORDINATE = {MAX_MESH_COORDINATE:.0e}: the mesh is "
+                         "broken; re-export it")
     return tri
+
+
+MAX_FACES: int = 5_000_000
+"""Most triangles :func:`voxelize` takes (its per-triangle arrays take about 1 KB each, so
+5 GB; ShapeNet's largest meshes have about 1 M). Simplify larger meshes first."""
+
+MAX_RAY_TESTS: int = 200_000_000
+"""Most (triangle, voxel column) pairs :func:`voxelize` tests, over all its ray axes
+(about 20 s). A normalized mesh needs a few per column (32^2 columns at resolution 32);
+millions of large triangles, or a mesh far larger than the grid cube, need more."""
+
+_CHUNK = 1_000_000
+"""Ray tests or surface points made at a time (about 250 MB of working arrays)."""
+
+
+def _chunks(cost: np.ndarray, budget: int = _CHUNK) -> list[slice]:
+    """Consecutive slices of the triangles whose ``cost`` adds up to about ``budget`` each
+    (at most ``budget`` triangles), so that the memory of each step stays bounded."""
+    start = np.cumsum(cost) - cost
+    group = np.maximum(start // budget, np.arange(len(cost)) // budget)
+    edges = [0, *(np.flatnonzero(np.diff(group)) + 1).tolist(), len(cost)]
+    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+
+
+def _check_work(tri: np.ndarray, resolution: int, axes: tuple[int, ...], name: str) -> None:
+    """Refuse a mesh that would take more than :data:`MAX_RAY_TESTS` ray tests or
+    :data:`MAX_SURFACE_POINTS` surface samples, before any is made."""
+    tests = sum(int(_columns(tri[:, :, _permutation(axis)], resolution)[2].sum())
+                for axis in axes)
+    points = float(_surface_point_counts(tri, resolution).sum())
+    size = float(np.max(tri.max(axis=(0, 1)) - tri.min(axis=(0, 1))))
+    fix = (f"normalize it first with e2vlib.shapes.normalize_mesh (it is {size:.3g} m across "
+           "against the 1 m grid cube)" if size > 2 else
+           "simplify it (e.g. mesh.simplify_quadric_decimation) or lower the resolution")
+    if tests > MAX_RAY_TESTS:
+        raise ValueError(f"voxelizing {name} ({len(tri)} triangles) at resolution {resolution} "
+                         f"would make {tests:.3g} ray tests, more than voxels.MAX_RAY_TESTS = "
+                         f"{MAX_RAY_TESTS:.0e}; {fix}")
+    if points > MAX_SURFACE_POINTS:
+        raise ValueError(f"voxelizing {name} ({len(tri)} triangles) at resolution {resolution} "
+                         f"would sample {points:.3g} surface points, more than "
+                         f"voxels.MAX_SURFACE_POINTS = {MAX_SURFACE_POINTS:.0e}; {fix}")
 
 
 def _check_resolution(resolution: int) -> int:
@@ -72,6 +125,54 @@ def _check_resolution(resolution: int) -> int:
     if not 1 <= int(resolution) <= 1024:
         raise ValueError(f"resolution must be in [1, 1024], got {resolution}")
     return int(resolution)
+
+
+def _permutation(axis: int) -> list[int]:
+    """Cyclic (right-handed) order of the coordinates that puts ``axis`` last ("w")."""
+    return [(axis + 1) % 3, (axis + 2) % 3, axis]
+
+
+def _columns(t: np.ndarray, r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Voxel columns each triangle's (u, v) projection may cover: the first column index
+    ``lo`` (F, 2), how many along u and v ``n`` (F, 2) and their product ``count`` (F,)."""
+    uv = t[:, :, :2]  # (F, 3, 2)
+    g = (uv + 0.5) * r - 0.5  # coordinates in which column centres are integers
+    jitter = np.asarray(_RAY_JITTER)
+    lo = np.clip(np.ceil(g.min(axis=1) - jitter), 0, r).astype(np.int64)
+    hi = np.clip(np.floor(g.max(axis=1) - jitter), -1, r - 1).astype(np.int64)
+    n = np.maximum(hi - lo + 1, 0)
+    return lo, n, n[:, 0] * n[:, 1]
+
+
+def _crossings(a: np.ndarray, b: np.ndarray, c: np.ndarray, area2: np.ndarray, r: int
+               ) -> np.ndarray:
+    """Signed crossings of triangles ``a b c`` (in (u, v, w)) with the voxel columns, as
+    a flat array ``(r * r * (r + 1),)``: per column, per number of centres below."""
+    lo, n, count = _columns(np.stack([a, b, c], axis=1), r)
+    total = int(count.sum())
+    if not total:
+        return np.zeros(r * r * (r + 1))
+    jitter = np.asarray(_RAY_JITTER)
+    fid = np.repeat(np.arange(len(count)), count)
+    local = np.arange(total) - np.repeat(np.cumsum(count) - count, count)
+    ci = lo[fid, 0] + local // n[fid, 1]
+    cj = lo[fid, 1] + local % n[fid, 1]
+    pu = -0.5 + (ci + 0.5 + jitter[0]) / r
+    pv = -0.5 + (cj + 0.5 + jitter[1]) / r
+    fa, fb, fc = a[fid], b[fid], c[fid]
+    # Barycentric weights from edge functions, scaled by the signed area.
+    wa = (fb[:, 0] - pu) * (fc[:, 1] - pv) - (fb[:, 1] - pv) * (fc[:, 0] - pu)
+    wb = (fc[:, 0] - pu) * (fa[:, 1] - pv) - (fc[:, 1] - pv) * (fa[:, 0] - pu)
+    wc = (fa[:, 0] - pu) * (fb[:, 1] - pv) - (fa[:, 1] - pv) * (fb[:, 0] - pu)
+    s = np.sign(area2[fid])
+    inside = (wa * s >= 0) & (wb * s >= 0) & (wc * s >= 0)
+    ci, cj, s = ci[inside], cj[inside], s[inside]
+    inv = 1.0 / area2[fid][inside]
+    w = wa[inside] * fa[inside, 2] + wb[inside] * fb[inside, 2] + wc[inside] * fc[inside, 2]
+    w = w * inv
+    # m = number of voxel centres below the crossing along the column.
+    m = np.clip(np.ceil((w + 0.5) * r - 0.5), 0, r).astype(np.int64)
+    return np.bincount((ci * r + cj) * (r + 1) + m, weights=s, minlength=r * r * (r + 1))
 
 
 def _ray_windings(tri: np.ndarray, resolution: int, axis: int) -> tuple[np.ndarray, np.ndarray]:
@@ -83,55 +184,23 @@ def _ray_windings(tri: np.ndarray, resolution: int, axis: int) -> tuple[np.ndarr
     centre seen along ``+axis`` is the sum over crossings beyond it; along ``-axis``, over
     crossings before it (with the sign flipped). For a closed, consistently oriented mesh
     both equal the true winding number: 1 inside, 0 outside, 2 where parts overlap.
+    Triangles are taken in chunks of about ``_CHUNK`` (triangle, column) pairs.
 
     Returns two int arrays ``(R, R, R)`` indexed ``[x, y, z]``.
     """
     r = resolution
-    # Cyclic permutation (right-handed) so the ray axis becomes the last coordinate "w".
-    perm = [(axis + 1) % 3, (axis + 2) % 3, axis]
-    t = tri[:, :, perm]
-    a, b, c = t[:, 0], t[:, 1], t[:, 2]
-    # Twice the signed area of the projection onto (u, v); its sign is the sign of the
-    # normal's w component.
-    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    keep = np.abs(area2) > 1e-14
-    a, b, c, area2 = a[keep], b[keep], c[keep], area2[keep]
-
-    # Column index ranges covered by each projected triangle (in voxel units).
-    uv = np.stack([a[:, :2], b[:, :2], c[:, :2]], axis=1)  # (F, 3, 2)
-    g = (uv + 0.5) * r - 0.5  # coordinates in which column centres are integers
-    jitter = np.asarray(_RAY_JITTER)
-    lo = np.ceil(g.min(axis=1) - jitter).astype(np.int64)
-    hi = np.floor(g.max(axis=1) - jitter).astype(np.int64)
-    lo = np.clip(lo, 0, r)
-    hi = np.clip(hi, -1, r - 1)
-    n = np.maximum(hi - lo + 1, 0)
-    count = n[:, 0] * n[:, 1]
-    total = int(count.sum())
-    d = np.zeros(r * r * (r + 1), dtype=np.int64)
-    if total:
-        fid = np.repeat(np.arange(len(count)), count)
-        local = np.arange(total) - np.repeat(np.cumsum(count) - count, count)
-        ci = lo[fid, 0] + local // n[fid, 1]
-        cj = lo[fid, 1] + local % n[fid, 1]
-        pu = -0.5 + (ci + 0.5 + jitter[0]) / r
-        pv = -0.5 + (cj + 0.5 + jitter[1]) / r
-        fa, fb, fc = a[fid], b[fid], c[fid]
-        # Barycentric weights from edge functions, scaled by the signed area.
-        wa = (fb[:, 0] - pu) * (fc[:, 1] - pv) - (fb[:, 1] - pv) * (fc[:, 0] - pu)
-        wb = (fc[:, 0] - pu) * (fa[:, 1] - pv) - (fc[:, 1] - pv) * (fa[:, 0] - pu)
-        wc = (fa[:, 0] - pu) * (fb[:, 1] - pv) - (fa[:, 1] - pv) * (fb[:, 0] - pu)
-        s = np.sign(area2[fid])
-        inside = (wa * s >= 0) & (wb * s >= 0) & (wc * s >= 0)
-        ci, cj, s = ci[inside], cj[inside], s[inside]
-        inv = 1.0 / area2[fid][inside]
-        w = wa[inside] * fa[inside, 2] + wb[inside] * fb[inside, 2] + wc[inside] * fc[inside, 2]
-        w = w * inv
-        # m = number of voxel centres below the crossing along the column.
-        m = np.clip(np.ceil((w + 0.5) * r - 0.5), 0, r).astype(np.int64)
-        d = np.bincount((ci * r + cj) * (r + 1) + m, weights=s, minlength=d.size)
-        d = np.rint(d).astype(np.int64)
-    d = d.reshape(r, r, r + 1)
+    perm = _permutation(axis)  # the ray axis becomes the last coordinate "w"
+    d = np.zeros(r * r * (r + 1))
+    for part in _chunks(_columns(tri[:, :, perm], r)[2]):
+        t = tri[part][:, :, perm]
+        a, b, c = t[:, 0], t[:, 1], t[:, 2]
+        # Twice the signed area of the projection onto (u, v); its sign is the sign of the
+        # normal's w component.
+        area2 = ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                 - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+        keep = np.abs(area2) > 1e-14
+        d += _crossings(a[keep], b[keep], c[keep], area2[keep], r)
+    d = np.rint(d).astype(np.int64).reshape(r, r, r + 1)
     below = np.cumsum(d, axis=2)[:, :, :r]  # signed crossings at or below each centre
     up = d.sum(axis=2, keepdims=True) - below  # crossings beyond the centre, +axis ray
     down = -below  # crossings before the centre, seen by a ray towards -axis
@@ -141,8 +210,20 @@ def _ray_windings(tri: np.ndarray, resolution: int, axis: int) -> tuple[np.ndarr
 
 
 MAX_SURFACE_POINTS: int = 50_000_000
-"""Most surface samples :func:`voxelize` makes for the thin-part rule (about 2.4 GB of
-float64 points); a mesh needing more (one far larger than the grid cube) is refused."""
+"""Most surface samples :func:`voxelize` makes for the thin-part rule (made
+``_CHUNK`` at a time); a mesh needing more (one far larger than the grid cube, or millions
+of large triangles) is refused before any is made."""
+
+
+def _surface_point_counts(tri: np.ndarray, resolution: int) -> np.ndarray:
+    """Upper bounds of the points :func:`_surface_points` makes on each triangle: rows
+    ``spacing`` apart across its height, each at most ``longest edge / spacing + 2``."""
+    spacing = _SURFACE_SPACING / resolution
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    longest = np.max([np.linalg.norm(tri[:, (k + 2) % 3] - tri[:, (k + 1) % 3], axis=1)
+                      for k in range(3)], axis=0)
+    n_rows = np.ceil(area2 / np.maximum(longest, 1e-300) / spacing) + 1
+    return np.where(area2 > 1e-18, n_rows * (np.ceil(longest / spacing) + 1), 0)
 
 
 def _surface_points(tri: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
@@ -174,14 +255,6 @@ def _surface_points(tri: np.ndarray, resolution: int) -> tuple[np.ndarray, np.nd
     bc_len = opposite[rows, first]
     height = norm / np.maximum(bc_len, 1e-300)
     n_rows = np.ceil(height / spacing).astype(np.int64) + 1  # rows at s = k / (n_rows - 1)
-    # estimate the points before making them: rows x points per row, at most bc / spacing + 2
-    estimate = float(np.sum(n_rows * (np.ceil(bc_len / spacing) + 1)))
-    if estimate > MAX_SURFACE_POINTS:
-        size = float(np.max(tri.max(axis=(0, 1)) - tri.min(axis=(0, 1))))
-        raise ValueError(
-            f"voxelizing this mesh would sample about {estimate:.3g} surface points (limit "
-            f"{MAX_SURFACE_POINTS:.0e}, voxels.MAX_SURFACE_POINTS): it is {size:.3g} m across "
-            f"against the 1 m grid cube; normalize it first with e2vlib.shapes.normalize_mesh")
     # (triangle, row) pairs
     f_row = np.repeat(rows, n_rows)
     k = np.arange(len(f_row)) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
@@ -213,18 +286,19 @@ def _thin_surface(solid: np.ndarray, tri: np.ndarray, resolution: int) -> np.nda
     its own voxel is returned. Elsewhere the solid already covers the surface.
     """
     pitch = 1.0 / resolution
-    pts, inward = _surface_points(tri, resolution)
-    # a hair inwards, so a face lying on a voxel boundary marks the voxel behind it
-    own, ok = _voxel_index(pts + (1e-6 * pitch) * inward, resolution)
-    covered = np.zeros(len(pts), dtype=bool)
-    for depth in (0.5, 1.0):
-        idx, inside = _voxel_index(pts + (depth * pitch) * inward, resolution)
-        hit = np.zeros(len(pts), dtype=bool)
-        hit[inside] = solid[idx[inside, 0], idx[inside, 1], idx[inside, 2]]
-        covered |= hit
-    own = own[ok & ~covered]
     out = np.zeros_like(solid)
-    out[own[:, 0], own[:, 1], own[:, 2]] = True
+    for part in _chunks(_surface_point_counts(tri, resolution)):
+        pts, inward = _surface_points(tri[part], resolution)
+        # a hair inwards, so a face lying on a voxel boundary marks the voxel behind it
+        own, ok = _voxel_index(pts + (1e-6 * pitch) * inward, resolution)
+        covered = np.zeros(len(pts), dtype=bool)
+        for depth in (0.5, 1.0):
+            idx, inside = _voxel_index(pts + (depth * pitch) * inward, resolution)
+            hit = np.zeros(len(pts), dtype=bool)
+            hit[inside] = solid[idx[inside, 0], idx[inside, 1], idx[inside, 2]]
+            covered |= hit
+        own = own[ok & ~covered]
+        out[own[:, 0], own[:, 1], own[:, 2]] = True
     return out
 
 
@@ -259,7 +333,9 @@ def voxelize(mesh: trimesh.Trimesh, resolution: int = paper.GRID_SIDE) -> np.nda
 
     Known answers (see tests/test_voxels.py): a centred box of half-size 0.25 gives exactly
     the central 16^3 block at resolution 32; a sphere of radius 0.5 fills about pi/6 of it.
-    A mesh far larger than the cube is refused (see :data:`MAX_SURFACE_POINTS`).
+    A mesh whose work exceeds a bound (:data:`MAX_FACES`, :data:`MAX_RAY_TESTS`,
+    :data:`MAX_SURFACE_POINTS`: one far larger than the cube, or millions of large
+    triangles) is refused, naming its file, before anything is allocated.
 
     Introduced in notebooks/04_building_the_dataset.ipynb.
 
@@ -271,6 +347,7 @@ def voxelize(mesh: trimesh.Trimesh, resolution: int = paper.GRID_SIDE) -> np.nda
     """
     r = _check_resolution(resolution)
     tri = _check_mesh(mesh)
+    _check_work(tri, r, (2,) if mesh.is_watertight else (0, 1, 2), mesh_name(mesh))
     if mesh.is_watertight:
         signed_volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()
         if signed_volume < 0:  # inside-out mesh: flip it so "inward" points inwards

@@ -302,7 +302,7 @@ def test_ac3d_objects_nest_their_locations_and_lines_are_left_out():
     assert np.allclose(sorted(mesh.area_faces), [0.5, 0.5, 0.5, 0.5])
     with pytest.raises(RealMeshError, match="not an AC3D file"):
         ac3d_to_mesh("OBJECT world\n")
-    with pytest.raises(RealMeshError, match="line 9: expected 3 numbers"):
+    with pytest.raises(RealMeshError, match="line 10: expected 3 numbers"):
         ac3d_to_mesh(AC3D.replace("0 0 0\n1 0 0\n1 1 0", "0 0 0\n1 zero 0\n1 1 0", 1))
     with pytest.raises(RealMeshError, match="outside 0..3"):
         ac3d_to_mesh(AC3D.replace("3 0 1", "7 0 1"))

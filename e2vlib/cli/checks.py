@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import stat
 from pathlib import Path
 
 from e2vlib.cli.errors import CommandError, UsageError
@@ -161,9 +162,25 @@ choose another --out
     if not existing.is_dir():
         raise UsageError(f"{flag} {target}: {existing} is a file, not a folder; choose another "
                          f"{flag}")
-    if not os.access(existing, os.W_OK | os.X_OK):
+    if not os.access(existing, os.W_OK | os.X_OK) or not _can_create_in(existing):
         raise UsageError(f"{flag} {target}: cannot write into {existing} (permission denied "
                          f"or read-only); choose another {flag} or fix the folder's permissions")
+
+
+def _can_create_in(folder: Path) -> bool:
+    """True when a file can really be made in ``folder`` (``os.access`` says yes to root
+    everywhere, ``/proc`` included): a hidden probe file is made and removed."""
+    import tempfile
+
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".e2v-probe-"):
+            return True
+    except OSError:
+        return False
+
+
+_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
 def output_file(text: str, flag: str, example: str) -> Path:
@@ -188,8 +205,49 @@ def output_file(text: str, flag: str, example: str) -> Path:
     if text.endswith(("/", os.sep)):
         raise UsageError(f"{flag} {text!r} ends with a folder separator; give a file name, "
                          f"e.g. {path / example}")
+    if path.exists() and not path.is_file():
+        mode = path.stat().st_mode
+        kind = next((words for test, words in _KINDS if test(mode)), "not a file")
+        raise UsageError(f"{flag} {path} exists and is {kind}, not a regular file; choose "
+                         f"another {flag} (such a path is never replaced, --overwrite or not)")
     writable_folder(path.parent, flag, path)
     return path
+
+
+def separate_paths(outputs: dict[str, Path | None], inputs: dict[str, str | None]) -> None:
+    """Refuse an output that is an input or another output (it would be destroyed, or
+    written over by the next one), whatever ``--overwrite`` says.
+
+    ``outputs`` and ``inputs`` map flags to paths (None: not given); two paths are one when
+    they name the same file (links followed) or, for a file not yet made, the same place.
+
+    Examples
+    --------
+    >>> separate_paths({"--out": Path("r.npz"), "--png": Path("./r.npz")}, {})
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --out and --png are both r.npz; give each output its own file
+    >>> separate_paths({"--out": Path("e.npz")}, {"--events": "e.npz"})
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --out e.npz is the --events input; write the output to \
+another file (an output never replaces an input)
+    """
+    def same(a: Path, b: Path) -> bool:
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+        return a.resolve() == b.resolve()
+
+    given = [(flag, path) for flag, path in outputs.items() if path is not None]
+    for k, (flag, path) in enumerate(given):
+        for other_flag, other in given[k + 1:]:
+            if same(path, other):
+                raise UsageError(f"{flag} and {other_flag} are both {path}; give each output "
+                                 "its own file")
+        for in_flag, text in inputs.items():
+            if text is not None and same(path, Path(text)):
+                raise UsageError(f"{flag} {path} is the {in_flag} input; write the output to "
+                                 "another file (an output never replaces an input)")
 
 
 def output_folder(text: str, flag: str) -> Path:
@@ -272,3 +330,36 @@ settings (make-data --frame-size), or a model trained on it
             f"checkpoint {checkpoint} takes frames of shape {tuple(model.input_shape)} "
             f"(n_frames, H, W) but {source} has {tuple(input_shape)}; use data built with "
             "the checkpoint's settings (make-data --frame-size), or a model trained on it")
+
+
+def real_meshes_flags_check(args: argparse.Namespace) -> None:
+    """Refuse ``make-data --real-meshes`` with flags the real-mesh test set cannot honour,
+    each with its reason, before any work (:class:`~e2vlib.cli.errors.UsageError`).
+
+    Examples
+    --------
+    >>> from e2vlib.cli.parser import build_parser
+    >>> parse = build_parser(figures=print).parse_args
+    >>> real_meshes_flags_check(parse(["make-data", "--out", "d", "--real-meshes", "c.csv",
+    ...                                "--per-category", "3", "--grey-video"]))
+    Traceback (most recent call last):
+    ...
+    e2vlib.cli.errors.UsageError: --real-meshes builds one test sample per kept catalogue \
+row, so these flags cannot apply: --per-category (the catalogue sets the objects); \
+--grey-video (the real-mesh set stores no grey video); drop them
+    """
+    from e2vlib.data import SPLITS
+
+    refused = {
+        "--categories": (args.categories is not None, "the catalogue sets the categories"),
+        "--per-category": (args.per_category is not None, "the catalogue sets the objects"),
+        "--raw-events-per-category": (args.raw_events_per_category != 1,
+                                      "the real-mesh set keeps no raw events"),
+        "--grey-video": (args.grey_video, "the real-mesh set stores no grey video"),
+        "--splits": (tuple(args.splits) != tuple(SPLITS), "every real object is a test sample"),
+        "--shard": (args.shard != "0/1", "the real-mesh set is built whole (use --workers)"),
+    }
+    given = [f"{flag} ({why})" for flag, (on, why) in refused.items() if on]
+    if given:
+        raise UsageError("--real-meshes builds one test sample per kept catalogue row, so "
+                         f"these flags cannot apply: {'; '.join(given)}; drop them")

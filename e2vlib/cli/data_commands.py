@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from e2vlib.cli.checks import output_folder, parse_categories
+from e2vlib.cli.checks import output_folder, parse_categories, real_meshes_flags_check
 from e2vlib.cli.errors import CommandError, UsageError
 
 DATA_PRESETS = {
@@ -71,6 +71,8 @@ def run_make_data(args: argparse.Namespace) -> int:
     """
     from e2vlib.data import build_dataset, check_build_folder, describe_build, parse_shard
 
+    if args.real_meshes is not None:  # flags a real-mesh build cannot honour, before all
+        real_meshes_flags_check(args)
     try:
         shard = parse_shard(args.shard)
     except ValueError as err:

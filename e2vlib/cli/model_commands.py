@@ -14,6 +14,7 @@ from e2vlib.cli.checks import (
     model_frames_check,
     output_file,
     output_folder,
+    separate_paths,
 )
 from e2vlib.cli.errors import CommandError, UsageError
 
@@ -179,6 +180,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
     from e2vlib.train import evaluate
 
     json_path = output_file(args.json, "--json", "results.json") if args.json else None
+    separate_paths({"--json": json_path}, {"--checkpoint": args.checkpoint})
     check_device(args.device)
     ckpt = read_checkpoint(args.checkpoint)
     model = model_from_checkpoint(ckpt, source=f"checkpoint {args.checkpoint}")
@@ -223,6 +225,8 @@ of .png, .jpg, .jpeg, .pdf, .svg
 
     out = output_file(args.out, "--out", "reconstruction.npz")
     png = output_file(args.png, "--png", "reconstruction.png") if args.png else None
+    separate_paths({"--out": out, "--png": png}, {"--checkpoint": args.checkpoint,
+                                                  "--mesh": args.mesh, "--events": args.events})
     for flag, path in (("--out", out), ("--png", png)):
         if path is not None and path.exists() and not args.overwrite:
             raise UsageError(f"{flag} {path} exists; pass --overwrite to replace it, or "

@@ -21,7 +21,24 @@ from e2vlib.frames import WINDOWS
 MAX_PER_CATEGORY = 10_000
 """Most objects per category a build plans (the paper's largest class has 3,057)."""
 MAX_RESOLUTION = 4096
-"""Largest render size in px (the paper renders 512)."""
+"""Largest render size in px (the paper renders 512); :data:`MAX_VIDEO_BYTES` bounds the
+video that a size and its oversampling make."""
+MAX_VIDEO_BYTES = 4 * 2**30
+"""Most bytes (4 GiB) of one sample's rendered float32 video: ``paper.N_VIDEO_FRAMES x
+oversample`` frames of ``resolution^2`` px. The paper's 512 px (oversample 11) takes 1.3 GiB;
+1024 px (oversample 21) would take 9.8 GiB and 4096 px at oversample 3, 22.5 GiB."""
+
+
+def _video_problem(config: BuildConfig) -> str | None:
+    """Why ``config``'s rendered video is too large for memory, or None."""
+    frames = paper.N_VIDEO_FRAMES * int(config.oversample or 1)
+    size = frames * config.resolution ** 2 * 4
+    if size <= MAX_VIDEO_BYTES:
+        return None
+    return (f"resolution {config.resolution} px with oversample {config.oversample} renders "
+            f"{frames} video frames of {size / 2**30:.3g} GiB per sample (float32), more than "
+            f"data.MAX_VIDEO_BYTES = {MAX_VIDEO_BYTES / 2**30:.0f} GiB; lower the resolution "
+            "or the oversampling (the paper renders 512 px)")
 
 
 def _size_problems(config: BuildConfig) -> list[str]:
@@ -140,6 +157,9 @@ class BuildConfig:
 
             object.__setattr__(self, "oversample",
                                required_oversample(paper.N_VIDEO_FRAMES, self.resolution))
+        video = _video_problem(self)
+        if video:
+            raise ValueError(video)
 
     def to_dict(self) -> dict:
         """A JSON-ready dict of every field (categories as a list); ``grey_video``,
@@ -188,7 +208,8 @@ def frame_settings(config: Mapping[str, Any]) -> dict[str, Any]:
     frames of :data:`e2vlib.paper.DT_US` microseconds, a missing ``windows``
     :data:`LEGACY_WINDOWS`; a missing (or None) ``frame_size`` stays None: unknown. Any other
     value must be what a build writes: ``n_frames``, ``dt_us``, ``frame_size`` whole
-    numbers >= 1 (not strings such as ``"20"``), ``windows`` one of
+    numbers >= 1 (not strings such as ``"20"``) making at most
+    :data:`~e2vlib.data.checks.MAX_FRAMES_PER_SAMPLE` values, ``windows`` one of
     :data:`e2vlib.frames.WINDOWS`; else ValueError naming the field and the fix.
 
     Examples
@@ -216,6 +237,11 @@ or leave it out for the default 100
                              f"({type(value).__name__}); write it as a number, or leave it "
                              f"out {leave_out}")
         settings[key] = int(value)
+    if settings["frame_size"] and (settings["n_frames"] * settings["frame_size"] ** 2
+                                   > MAX_FRAMES_PER_SAMPLE):
+        raise ValueError(f"{settings['n_frames']} frames of {settings['frame_size']} px are "
+                         f"more than {MAX_FRAMES_PER_SAMPLE} values per sample "
+                         "(data.MAX_FRAMES_PER_SAMPLE); the paper uses 100 frames of 256 px")
     if settings["windows"] not in WINDOWS:
         raise ValueError(f"windows must be one of {', '.join(WINDOWS)}, got "
                          f"{settings['windows']!r}; or leave it out for {LEGACY_WINDOWS!r}")

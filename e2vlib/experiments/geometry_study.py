@@ -23,14 +23,21 @@ from __future__ import annotations
 import json
 import os
 import time
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from e2vlib import metrics, paper
-from e2vlib.experiments.provenance import git_commit
-from e2vlib.files import atomic_path
+from e2vlib.experiments.provenance import REPO, git_commit
+from e2vlib.experiments.runner import (
+    OBJECT_KEY,
+    check_results_path,
+    read_results,
+    update_results,
+)
+from e2vlib.experiments.summary import unique_runs
 
 METHODS = ("visual_hull", "events_carving", "learned", "mean_shape")
 """The rows of the study, in table order (added checkpoints and ``category_oracle`` follow)."""
@@ -118,9 +125,9 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
                 "events_method": "geometry.event_ray_density + fill_solid (defaults)",
                 "n_points": n_points, "limit_per_category": limit_per_category}
     path = Path(out) / "geometry.json"
-    results = (json.loads(path.read_text()) if path.exists()
-               else {"study": "geometry", "question": QUESTION, "protocol": protocol,
-                     "runs": []})
+    check_results_path(path)
+    results = read_results(path) or {"study": "geometry", "question": QUESTION,
+                                     "protocol": protocol, "runs": []}
     if results["protocol"] != protocol:
         raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
                          f"use another --out folder to run this one ({protocol})")
@@ -139,9 +146,7 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
         record = _object_record(rows[test.ids[i]], config, data, events, learned[k],
                                 mean_shape, n_points)
         results["runs"].append({**record, "commit": commit})
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path) as tmp:
-            tmp.write_text(json.dumps(results, indent=1) + "\n")
+        results = update_results(path, results, OBJECT_KEY)  # merged with other writers'
     if checkpoints:
         add_checkpoints(path, checkpoints, data, n_points)
     return path
@@ -168,7 +173,10 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str],
     from e2vlib.train import category_mean_shapes
 
     path, data = Path(path), Path(data)
-    results = json.loads(path.read_text())
+    results = read_results(path)
+    if results is None:
+        raise FileNotFoundError(f"{path} does not exist; run `python -m e2vlib experiment "
+                                "geometry` first")
     clash = sorted(set(checkpoints) & {*METHODS, "category_oracle"})
     if clash:
         raise ValueError(f"checkpoint names {clash} are method names; choose others")
@@ -213,23 +221,51 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str],
         f"--checkpoint {name}={ckpt}" for name, ckpt in checkpoints.items())
     if command not in commands:
         commands.append(command)
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(results, indent=1) + "\n")
+    update_results(path, results, OBJECT_KEY)  # another --checkpoint run's scores are kept
     return path
 
 
-def summarize_geometry(results: dict | str | os.PathLike,
-                       metric: str = "iou@0.3") -> list[dict]:
-    """Per method: mean of ``metric`` over objects, its 95 % interval (t over objects), n."""
+def countable_objects(results: dict, data: str | os.PathLike | None = None,
+                      source: str = "the geometry results") -> list[dict]:
+    """The records a summary counts: each object once (its first record) and, when the
+    manifest of ``data`` (default: the study's ``protocol["data"]``, from the repository
+    root if not found here) can be read, only the objects of its test split. Warns naming
+    the records left out."""
+    from e2vlib.data import read_manifest
 
+    runs = unique_runs(results["runs"], lambda r: r["id"], source)
+    named = data or results.get("protocol", {}).get("data", "data_small")
+    folder = Path(named)
+    if not folder.is_absolute() and not folder.exists():
+        folder = REPO / folder
+    if not (folder / "manifest.csv").is_file():
+        return runs  # the data is not here: the objects cannot be checked
+    test = {row["id"] for row in read_manifest(folder) if row["split"] == "test"}
+    unknown = [r["id"] for r in runs if r["id"] not in test]
+    if unknown:
+        warnings.warn(f"{source}: ignored {len(unknown)} record(s) that are not a test object "
+                      f"of {named}: {', '.join(unknown)} (remove "
+                      "them, or give the data the study was made from)", stacklevel=3)
+    return [r for r in runs if r["id"] in test]
+
+
+def summarize_geometry(results: dict | str | os.PathLike, metric: str = "iou@0.3",
+                       data: str | os.PathLike | None = None) -> list[dict]:
+    """Per method: mean of ``metric`` over objects, its 95 % interval (t over objects), n.
+
+    Each test object counts once; copies and objects not in the test split of ``data``
+    (default: the study's) are left out with a warning (:func:`countable_objects`).
+    """
+    source = "the geometry results"
     if not isinstance(results, dict):
-        results = json.loads(Path(results).read_text())
+        source, results = str(results), read_results(results)
+    runs = countable_objects(results, data, source)
     rows = []
     extra = [*results.get("checkpoints", {}), "category_oracle"]
     for method in [*METHODS, *extra]:
-        if method in extra and not all(method in r["scores"] for r in results["runs"]):
+        if method in extra and not all(method in r["scores"] for r in runs):
             continue  # not added (yet)
-        values = np.array([r["scores"][method][metric] for r in results["runs"]])
+        values = np.array([r["scores"][method][metric] for r in runs])
         if len(values) == 0:
             continue
         rows.append({"method": method, "n": len(values), "mean": float(values.mean()),

@@ -24,6 +24,7 @@ category the file also holds a summary: n, mean IoU@0.3 and its 95 % interval ov
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import sys
@@ -49,14 +50,47 @@ QUESTION = ("The learned models train on procedural stand-ins of the 13 categori
             "visual hull with known poses, the mean shape and the per-category oracle?")
 
 
-def summarize_real(runs: Sequence[dict], metric: str = "iou@0.3") -> dict:
+def countable_runs(runs: Sequence[dict], ids: Sequence[str] | None = None
+                   ) -> tuple[list[dict], list[str]]:
+    """``(runs, left_out)``: the records a summary counts (each object once, its first
+    record; of one of the paper's categories; in ``ids`` when given, the objects of the
+    dataset scored) and a note for each record left out.
+
+    Examples
+    --------
+    >>> runs = [{"id": "chair_a", "category": "chair"}, {"id": "chair_a", "category": "chair"},
+    ...         {"id": "sofa_b", "category": "sofa"}, {"id": "x_c", "category": "bookshelf"}]
+    >>> kept, left_out = countable_runs(runs, ids=["chair_a", "x_c"])
+    >>> [r["id"] for r in kept], left_out
+    (['chair_a'], ['chair_a (a second record)', 'sofa_b (not in the dataset)', \
+"x_c (category 'bookshelf' is not the paper's)"])
+    """
+    wanted = None if ids is None else set(ids)
+    kept, seen, left_out = [], set(), []
+    for run in runs:
+        sid = run.get("id")
+        if sid in seen:
+            left_out.append(f"{sid} (a second record)")
+        elif wanted is not None and sid not in wanted:
+            left_out.append(f"{sid} (not in the dataset)")
+        elif run.get("category") not in paper.CATEGORIES:
+            left_out.append(f"{sid} (category {run.get('category')!r} is not the paper's)")
+        else:
+            kept.append(run)
+        seen.add(sid)
+    return kept, left_out
+
+
+def summarize_real(runs: Sequence[dict], metric: str = "iou@0.3",
+                   ids: Sequence[str] | None = None) -> dict:
     """``{method: {"overall": row, "per_category": {category: row}}}`` with rows
     ``{"n", "mean", "ci95"}`` of ``metric`` over the objects holding it, categories in the
-    paper's order."""
+    paper's order; only the records :func:`countable_runs` keeps are counted."""
     def row(values: list[float]) -> dict:
         return {"n": len(values), "mean": float(np.mean(values)),
                 "ci95": metrics.interval95(values)}
 
+    runs = countable_runs(runs, ids)[0]
     methods = list(dict.fromkeys(m for r in runs for m in r["scores"]))
     out = {}
     for method in methods:
@@ -150,7 +184,8 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
     settings = {k: v for k, v in stored.items() if k not in ("categories", "source")}
     config = BuildConfig.from_dict({**settings, "categories": list(paper.CATEGORIES),
                                     "per_category": 1})
-    test = preload(E2VDataset(data, "test"), progress=False)
+    dataset = E2VDataset(data, "test")
+    test = preload(dataset, progress=False)
     path = Path(out) / "real_meshes.json"
     protocol = {"data": str(data), "train_data": str(train_data),
                 "frames": {k: settings[k] for k in ("resolution", "frame_size", "oversample",
@@ -180,7 +215,7 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
                    source=stored.get("source"), torch=torch.__version__,
                    missing_categories=[c for c in paper.CATEGORIES
                                        if c not in stored.get("categories", ())])
-    runs = {r["id"]: r for r in results["runs"]}
+    runs, changed = _current_runs(results, test.ids, dataset.digests)
     methods = [*checkpoints, *BASELINES]
     todo = [i for i, sid in enumerate(test.ids)
             if any(m not in runs.get(sid, {}).get("scores", {}) for m in methods)]
@@ -205,6 +240,7 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         label = test.voxels[i].numpy().astype(bool)
         record = runs.setdefault(sid, {"id": sid, "category": category, "scores": {},
                                        "seconds": {}})
+        record["sample_sha256"] = dataset.digests.get(sid)
         scores = record["scores"]
         for name, (probabilities, threshold) in learned.items():
             if name not in scores:
@@ -227,12 +263,42 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         if "category_oracle" not in scores:
             scores["category_oracle"] = score_occupancy(oracle[category], label, n_points)
         record["commit"] = commit
-        results["runs"] = list(runs.values())
-        results["summary"] = summarize_real(results["runs"])
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path) as tmp:
-            tmp.write_text(json.dumps(results, indent=1) + "\n")
+        _write_results(path, results, runs, test.ids)
+    if changed and not todo:
+        _write_results(path, results, runs, test.ids)
     return path
+
+
+def _current_runs(results: dict, ids: Sequence[str], digests: Mapping[str, str]
+                  ) -> tuple[dict[str, dict], bool]:
+    """``({id: record}, changed)``: the records of the objects in the dataset now (``ids``),
+    each once; records of objects it no longer holds move to ``results["dropped_runs"]``,
+    and a record of a sample made again since (its ``sample_sha256`` differs from the
+    manifest's, ``digests``) loses its scores, so it is scored anew."""
+    wanted, runs, dropped = set(ids), {}, []
+    for record in results["runs"]:
+        sid = record.get("id")
+        if sid in wanted and sid not in runs:
+            runs[sid] = record
+        else:
+            dropped.append(record)
+    stale = [sid for sid, r in runs.items() if r.get("sample_sha256") is not None
+             and r["sample_sha256"] != digests.get(sid)]
+    for sid in stale:
+        runs[sid]["scores"], runs[sid]["seconds"] = {}, {}
+    if dropped:
+        results.setdefault("dropped_runs", []).extend(dropped)
+    return runs, bool(dropped or stale)
+
+
+def _write_results(path: Path, results: dict, runs: dict[str, dict], ids: Sequence[str]
+                   ) -> None:
+    """Write ``results`` with ``runs`` (in dataset order) and their summary, atomically."""
+    results["runs"] = [runs[sid] for sid in ids if sid in runs]
+    results["summary"] = summarize_real(results["runs"], ids=ids)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(results, indent=1) + "\n")
 
 
 def format_real_table(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> str:
@@ -241,6 +307,7 @@ def format_real_table(results: dict | str | os.PathLike, metric: str = "iou@0.3"
     if not isinstance(results, dict):
         results = json.loads(Path(results).read_text())
     summary = summarize_real(results["runs"], metric)
+    left_out = countable_runs(results["runs"])[1]
     methods = list(summary)
     width = 22  # room for a negative lower bound: "0.261 [-0.022, 0.543]"
     header = f"{'category':<11} {'n':>3} " + " ".join(f"{m:>{width}}" for m in methods)
@@ -259,13 +326,18 @@ def format_real_table(results: dict | str | os.PathLike, metric: str = "iou@0.3"
     lines.append("-" * len(header))
     lines.append(f"{'overall':<11} {summary[methods[0]]['overall']['n']:>3} "
                  + " ".join(cell(summary[m]["overall"]) for m in methods))
+    if left_out:
+        lines.append(f"left out: {', '.join(left_out)}")
     return "\n".join(lines)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m e2vlib.experiments.real_study``: score the real-mesh test set (resumable)."""
-    parser = argparse.ArgumentParser(prog="python -m e2vlib.experiments.real_study",
-                                     description=__doc__.split("\n\n")[0])
+def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.ArgumentParser
+                 ) -> argparse.ArgumentParser:
+    """The parser of ``python -m e2vlib.experiments.real_study`` (its ``func``:
+    :func:`run_command`); ``parser_class`` makes its errors (the command line's is one
+    line)."""
+    parser = parser_class(prog="python -m e2vlib.experiments.real_study",
+                          description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", default="cache/real_meshes",
                         help="the real-mesh dataset (make-data --real-meshes)")
     parser.add_argument("--train-data", default="data_small",
@@ -277,7 +349,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="folder of real_meshes.json")
     parser.add_argument("--table", action="store_true",
                         help="only print the table of the recorded file")
-    args = parser.parse_args(argv)
+    parser.set_defaults(func=run_command)
+    return parser
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Run a parsed ``real_study`` command line: print the table (``--table``), or score and
+    then print it."""
     if args.table:
         print(format_real_table(Path(args.out) / "real_meshes.json"))
         return 0
@@ -285,15 +363,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     for item in args.checkpoint or [f"{k}={v}" for k, v in DEFAULT_CHECKPOINTS.items()]:
         name, sep, ckpt = item.partition("=")
         if not sep or not name or not ckpt:
-            parser.error(f"--checkpoint must look like NAME=PATH, got {item!r}")
+            raise ValueError(f"--checkpoint must look like NAME=PATH, got {item!r}")
         checkpoints[name] = ckpt
-    command = " ".join(["python -m e2vlib.experiments.real_study", *(argv if argv is not None
-                                                          else sys.argv[1:])])
+    command = " ".join(["python -m e2vlib.experiments.real_study", *args.argv])
     path = run_real_study(args.out, args.data, args.train_data, checkpoints,
                           command=command)
     print(format_real_table(path))
     print(f"results: {path}")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m e2vlib.experiments.real_study``: score the real-mesh test set (resumable).
+
+    Errors are one line on stderr (exit status 1; 2 for a bad command line), as the
+    command line's (:func:`e2vlib.cli.errors.run`; ``--debug`` shows the traceback).
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # the command line's error wrapper; imported by name, as the lab sits below the cli
+    errors = importlib.import_module("e2vlib.cli.errors")
+
+    def build() -> argparse.ArgumentParser:
+        parser = build_parser(errors.Parser)
+        parser.set_defaults(argv=[a for a in argv if a != "--debug"])
+        return parser
+
+    return errors.run(build, argv)
 
 
 if __name__ == "__main__":

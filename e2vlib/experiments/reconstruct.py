@@ -14,6 +14,7 @@ Introduced in notebooks/07_evaluation.ipynb.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -30,6 +31,12 @@ from e2vlib.metrics import iou
 from e2vlib.model import E2V, checkpoint_data_config, model_from_checkpoint, read_checkpoint
 from e2vlib.paper import IOU_THRESHOLD
 from e2vlib.shapes import load_mesh
+
+MIN_FILLED_FRACTION = 0.5
+"""The least fraction of the model's frames (time windows of ``dt_us`` us from the first
+event) that must hold an event of a recording given to :func:`reconstruct`: with fewer, the
+events are bunched in time (all in one window, a stray event long before the rest) and the
+model would answer from frames empty by construction. Simulated orbits fill every frame."""
 
 
 class InputError(ValueError):
@@ -129,6 +136,37 @@ slim_checkpoint)
     return BuildConfig.from_dict(known)
 
 
+def check_frames_filled(frames: np.ndarray, events: np.ndarray, source: str,
+                        dt_us: int) -> None:
+    """Refuse frames of which fewer than :data:`MIN_FILLED_FRACTION` hold an event, naming
+    ``source``, the count and what to do (an :class:`InputError`).
+
+    Examples
+    --------
+    >>> from e2vlib.events import make_events
+    >>> frames = np.zeros((10, 4, 4), np.uint8)
+    >>> frames[0, 0, 0] = 1  # one frame of ten holds events
+    >>> events = make_events([0, 1], [0, 0], [0, 900], [1, 1])
+    >>> check_frames_filled(frames, events, "b.npz", 5000)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.experiments.reconstruct.InputError: events b.npz: only 1 of the model's 10 frames ...
+    """
+    windows = frames.shape[-3]  # (..., n_frames, H, W)
+    filled = int(np.any(frames.reshape(-1, windows, *frames.shape[-2:]) != 0,
+                        axis=(0, 2, 3)).sum())
+    needed = math.ceil(MIN_FILLED_FRACTION * windows)
+    if filled < needed:
+        first, last = int(events["t"].min()), int(events["t"].max())
+        raise InputError(source, (
+            f"only {filled} of the model's {windows} frames ({dt_us} us each, from the first "
+            f"event) hold events; at least {needed} must (MIN_FILLED_FRACTION "
+            f"{MIN_FILLED_FRACTION}): its {len(events)} events span {last - first} us "
+            f"from t = {first} us, the frames {windows * dt_us} us. Give a recording of "
+            "the whole orbit, and drop stray events before it (the frames start at the "
+            "first event: keep events from the first dense second on)"))
+
+
 def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, events=None,
                 sensor_size: tuple[int, int] | None = None, device: str = "auto",
                 seed: int = 0) -> Reconstruction:
@@ -162,7 +200,8 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         Naming the problem: neither or both of ``mesh`` and ``events``, an array without
         ``sensor_size``, a checkpoint whose stored data config disagrees with its model
         (:func:`checkpoint_build_config`), frames of another shape than the model takes;
-        :class:`InputError` for events that cannot make the input (fewer than its frames).
+        :class:`InputError` for events that cannot make the input (fewer than its frames,
+        or bunched in time so that most frames are empty: :func:`check_frames_filled`).
     FloatingPointError
         When the model's output holds NaN or inf (a broken checkpoint).
 
@@ -220,6 +259,7 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
                                            windows=config.windows)
         except ValueError as err:
             raise InputError(name, str(err)) from None
+        check_frames_filled(frames, events, name, config.dt_us)
     if tuple(frames.shape) != tuple(model.input_shape):
         raise ValueError(f"the model expects frames of shape {tuple(model.input_shape)}, "
                          f"the input gives {tuple(frames.shape)}")

@@ -37,13 +37,14 @@ from pathlib import Path
 import numpy as np
 
 from e2vlib.experiments.provenance import REPO
-from e2vlib.experiments.runner import command_line
+from e2vlib.experiments.runner import check_results, command_line
 from e2vlib.experiments.studies import STUDIES
 from e2vlib.experiments.summary import (
     compare,
     format_study_table,
     is_real_difference,
     summarize,
+    unique_runs,
 )
 
 RESULTS_DIR = REPO / "experiments" / "results"
@@ -61,7 +62,10 @@ def load_results(study: str, root: str | os.PathLike | None = None) -> dict:
     """The recorded study ``study`` (``ROOT/STUDY.json``, default ``experiments/results``).
 
     Raises :class:`MissingResultsError` naming the command that records it when the file is
-    missing, and a ``ValueError`` naming the file when it is not a study record.
+    missing, and a ``ValueError`` naming the file when it is not a study record or a record
+    is wrong (a key missing, a score NaN or out of range, a config the study lacks:
+    :func:`~e2vlib.experiments.runner.check_results`, naming the run and the key). Each run
+    (each object) is kept once, with a warning naming the copies left out.
     """
     path = Path(root if root is not None else RESULTS_DIR) / f"{study}.json"
     if not path.exists():
@@ -78,8 +82,10 @@ def load_results(study: str, root: str | os.PathLike | None = None) -> dict:
     except (json.JSONDecodeError, UnicodeDecodeError) as error:
         raise ValueError(f"{path} is not a readable study record ({error}); restore it with "
                          "`git checkout -- experiments/results` or rerun the study") from None
-    if not isinstance(results, dict) or not isinstance(results.get("runs"), list):
-        raise ValueError(f"{path} holds no 'runs' list: not a study record")
+    check_results(results, path, study)
+    objects = all("config" not in r and "id" in r for r in results["runs"])
+    results["runs"] = unique_runs(results["runs"], (lambda r: r["id"]) if objects else
+                                  (lambda r: (r["config"], r["seed"])), str(path))
     return results
 
 

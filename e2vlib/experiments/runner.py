@@ -1,14 +1,19 @@
 """Running studies: one (config, seed) trained and scored (:func:`run_one`), every run of a
 study recorded and resumable (:func:`run_study`), runs reused across studies
-(:func:`find_same_run`).
+(:func:`find_same_run`); results files read with every record checked
+(:func:`read_results`, :func:`check_results`) and written by one writer that merges under a
+lock (:func:`update_results`), which the geometry and real-mesh studies use too.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -120,20 +125,241 @@ def run_one(protocol: Protocol, seed: int, device: str = "auto", workdir: Path |
     }
 
 
-def _read(path: Path) -> dict | None:
+RUN_KEY = ("config", "seed")
+"""What names a training study's run: one record per (config, seed)."""
+OBJECT_KEY = ("id",)
+"""What names a record of the geometry and real-mesh studies: one per object."""
+LOCK_TIMEOUT_S = 120.0
+"""Seconds a writer waits for another process's hold on a results folder (a hold lasts one
+read, merge and write of a results file) before it gives up with a message."""
+FRACTION = re.compile(r"[.:_](iou|fscore)@|[.:]val_threshold$")
+"""Scores that are fractions in [0, 1], by their dotted name in a record: IoU and F-score at
+any threshold (also per category, or of other test data: ``metrics.low:iou@0.3``) and the
+validation-picked threshold."""
+
+
+def as_seed(value: object) -> int | None:
+    """A recorded seed as an int (``"0"`` is seed 0); None when it is not a whole number.
+
+    Examples
+    --------
+    >>> as_seed(2), as_seed("0"), as_seed(" 7 "), as_seed("zero"), as_seed(True), as_seed(1.5)
+    (2, 0, 7, None, None, None)
+    """
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int):
+        return value
+    if isinstance(value, str) and value.strip().isdigit():
+        return int(value.strip())
+    return None
+
+
+def _score_problem(name: str, value: object) -> str | None:
+    """What is wrong with the recorded score ``name`` (dotted), or None."""
+    if isinstance(value, dict):
+        return next((problem for key, inner in value.items()
+                     if (problem := _score_problem(f"{name}.{key}", inner))), None)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return f"{name} is {value!r}, not a number"
+    if not math.isfinite(value):
+        return f"{name} is {value}"
+    if FRACTION.search(name) and not 0 <= value <= 1:
+        return f"{name} is {value}, outside [0, 1]"
+    return None
+
+
+def _record_problem(run: object, study: str | None) -> str | None:
+    """What is wrong with one record of a results file (None: nothing); normalizes its seed."""
+    if not isinstance(run, dict):
+        return f"is {type(run).__name__}, not a record"
+    objects = "config" not in run and "id" in run
+    keys = ("id", "scores") if objects else ("config", "seed", "metrics")
+    missing = next((k for k in keys if k not in run), None)
+    if missing is not None:
+        return f"{missing} is missing"
+    if objects:
+        scores, prefix = run["scores"], "scores"
+        if not isinstance(scores, dict):
+            return "scores is not a mapping of methods to scores"
+    else:
+        if study in STUDIES and run["config"] not in STUDIES[study].configs:
+            return (f"config {run['config']!r} is not a config of study {study!r} "
+                    f"({', '.join(STUDIES[study].configs)})")
+        if as_seed(run["seed"]) is None:
+            return f"seed {run['seed']!r} is not a whole number"
+        run["seed"] = as_seed(run["seed"])
+        scores, prefix = run["metrics"], "metrics"
+        if not isinstance(scores, dict):
+            return "metrics is not a mapping of names to scores"
+        if "iou@0.3" not in scores:
+            return "metrics.iou@0.3 is missing"
+    for name, value in scores.items():
+        if objects and not isinstance(value, dict):
+            return f"scores.{name} is {value!r}, not the scores of a method"
+        problem = _score_problem(f"{prefix}.{name}", value)
+        if problem is not None:
+            return problem
+    return None
+
+
+def _label(run: object) -> str:
+    """A record's name in messages: ``config seed S`` or the object's id."""
+    if not isinstance(run, dict):
+        return "not a record"
+    if "config" in run or "id" not in run:
+        return f"{run.get('config', '?')} seed {run.get('seed', '?')}"
+    return str(run["id"])
+
+
+def check_results(results: object, source: str | os.PathLike, study: str | None = None
+                  ) -> dict:
+    """Check a results file's content as read (``source`` names it); return it, every seed
+    an int.
+
+    Each training run needs ``config`` (one of the study's, for a study of
+    :data:`STUDIES`), a whole-number ``seed`` and ``metrics`` holding ``iou@0.3``; each
+    object record (geometry, real meshes) ``id`` and ``scores``. Every score is a finite
+    number, IoU, F-score and ``val_threshold`` within [0, 1]. Raises ValueError naming the
+    file, the run (its place and name) and the key.
+
+    Examples
+    --------
+    >>> runs = [{"config": "bce", "seed": "0", "metrics": {"iou@0.3": 0.4}}]
+    >>> check_results({"runs": runs}, "loss.json", "loss")["runs"][0]["seed"]
+    0
+    >>> runs[0]["metrics"]["iou@0.3"] = 7.5
+    >>> check_results({"runs": runs}, "loss.json", "loss")
+    Traceback (most recent call last):
+    ...
+    ValueError: loss.json: run 1 (bce seed 0): metrics.iou@0.3 is 7.5, outside [0, 1]; \
+correct or remove that run (running the study again records a removed run anew)
+    """
+    if not isinstance(results, dict) or not isinstance(results.get("runs"), list):
+        raise ValueError(f"{source} holds no 'runs' list: not a study record")
+    study = study or results.get("study")
+    for number, run in enumerate(results["runs"], 1):
+        problem = _record_problem(run, study)
+        if problem is not None:
+            raise ValueError(f"{source}: run {number} ({_label(run)}): {problem}; correct or "
+                             "remove that run (running the study again records a removed "
+                             "run anew)")
+    return results
+
+
+def check_results_path(path: Path) -> None:
+    """Refuse, before any work, a results path that is a folder or not a regular file."""
+    if path.is_dir():
+        raise ValueError(f"{path} is a directory, not a results file; move it away or use "
+                         "another --out folder")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path} exists and is not a regular file; use another --out folder")
+
+
+def read_results(path: str | os.PathLike, study: str | None = None) -> dict | None:
+    """The results file at ``path`` checked by :func:`check_results` (None when missing)."""
+    path = Path(path)
     if not path.exists():
         return None
+    check_results_path(path)
     try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as err:
+        results = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ValueError(f"{path} is not valid JSON ({err}); move it away to start the "
                          "study afresh") from err
+    return check_results(results, path, study)
 
 
-def _write(path: Path, results: dict) -> None:
+@contextmanager
+def results_lock(folder: Path, timeout_s: float = LOCK_TIMEOUT_S) -> Iterator[None]:
+    """Hold an exclusive lock on ``folder`` (``fcntl.flock`` on the folder itself, so
+    nothing is left on disk): writers of the results files in one folder take turns.
+    Without ``fcntl`` (Windows) nothing is locked."""
+    try:
+        import fcntl
+    except ImportError:  # no advisory locks: one writer at a time is then the user's care
+        yield
+        return
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    raise TimeoutError(f"another process has held the results folder {folder} "
+                                       f"for over {timeout_s:.0f} s (LOCK_TIMEOUT_S); let it "
+                                       "finish, or stop it") from None
+                time.sleep(0.05)
+        yield
+    finally:
+        os.close(fd)  # closing releases the lock
+
+
+def _run_id(run: dict, key: Sequence[str]) -> tuple:
+    return tuple(as_seed(run[k]) if k == "seed" else run[k] for k in key)
+
+
+def merge_results(on_disk: dict | None, ours: dict, key: Sequence[str],
+                  source: str | os.PathLike = "the results file") -> dict:
+    """``ours`` merged into what is ``on_disk``: every record of either, one per ``key``
+    (the disk's first; for one object, the methods of both under ``scores`` and
+    ``seconds``), the commands and checkpoints of both, the other fields ours.
+
+    Raises ValueError when the disk holds runs of another protocol.
+
+    Examples
+    --------
+    >>> disk = {"protocol": {}, "runs": [{"id": "a", "scores": {"hull": 1}}]}
+    >>> ours = {"protocol": {}, "runs": [{"id": "a", "scores": {"best": 2}}, {"id": "b"}]}
+    >>> merge_results(disk, ours, ("id",))["runs"]
+    [{'id': 'a', 'scores': {'best': 2, 'hull': 1}}, {'id': 'b'}]
+    """
+    if on_disk is None:
+        return ours
+    if on_disk.get("protocol") != ours.get("protocol"):
+        raise ValueError(f"{source} holds runs of another protocol ({on_disk.get('protocol')}),"
+                         f" written meanwhile by another process; use another --out folder "
+                         f"to run this one ({ours.get('protocol')})")
+    merged = {**on_disk, **ours}
+    if "commands" in on_disk or "commands" in ours:
+        merged["commands"] = list(dict.fromkeys([*on_disk.get("commands", []),
+                                                 *ours.get("commands", [])]))
+    if "checkpoints" in on_disk or "checkpoints" in ours:
+        merged["checkpoints"] = {**ours.get("checkpoints", {}),
+                                 **on_disk.get("checkpoints", {})}
+    runs: dict[tuple, dict] = {}
+    for run in [*on_disk["runs"], *ours["runs"]]:
+        first = runs.setdefault(_run_id(run, key), run)
+        if first is not run:
+            for part in ("scores", "seconds"):
+                if part in run or part in first:
+                    first[part] = {**run.get(part, {}), **first.get(part, {})}
+    merged["runs"] = list(runs.values())
+    return merged
+
+
+def update_results(path: str | os.PathLike, results: dict, key: Sequence[str] = RUN_KEY,
+                   finish: Callable[[dict], None] | None = None) -> dict:
+    """Write ``results`` to ``path`` without losing another process's records; return what
+    was written.
+
+    Under :func:`results_lock`: read the file as it is now (:func:`read_results`), merge
+    ``results`` into it by ``key`` (:func:`merge_results`), let ``finish`` change the merged
+    results (a summary, records to drop), write a temporary file and rename it over
+    ``path``. Every study's writer, training, geometry and real meshes, goes through here.
+    """
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(results, indent=1) + "\n")
+    with results_lock(path.parent):
+        merged = merge_results(read_results(path), results, key, path)
+        if finish is not None:
+            finish(merged)
+        with atomic_path(path) as tmp:
+            tmp.write_text(json.dumps(merged, indent=1) + "\n")
+    return merged
 
 
 def _same_protocol(recorded: dict, protocol: Protocol) -> bool:
@@ -185,7 +411,7 @@ def find_same_run(out: Path, protocol: Protocol, seed: int, device: str,
         if not isinstance(results, dict) or "protocol" not in results:
             continue
         for run in results.get("runs", []):
-            if (run.get("seed") != seed or run.get("device") != device
+            if (as_seed(run.get("seed")) != seed or run.get("device") != device
                     or run.get("cpu") != cpu):
                 continue
             try:
@@ -228,8 +454,9 @@ def run_study(study: str, configs: Sequence[str] | None = None,
         raise ValueError("give at least one seed")
     protocol = spec.protocol(quick).updated(base_overrides or {})
     path = Path(out) / f"{study}.json"
-    results = _read(path) or {"study": study, "question": spec.question,
-                              "protocol": protocol.to_dict(), "runs": []}
+    check_results_path(path)
+    results = read_results(path, study) or {"study": study, "question": spec.question,
+                                            "protocol": protocol.to_dict(), "runs": []}
     if not _same_protocol(results["protocol"], protocol):
         raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
                          f"use another --out folder to run this one ({protocol.to_dict()})")
@@ -238,10 +465,13 @@ def run_study(study: str, configs: Sequence[str] | None = None,
     commands = results.setdefault("commands", [])  # every invocation that added runs, in order
     if results["command"] not in commands:
         commands.append(results["command"])
-    done = {(r["config"], r["seed"]) for r in results["runs"]}
+    done = {_run_id(r, RUN_KEY) for r in results["runs"]}
     todo = [(n, s) for n in names for s in seeds if (n, int(s)) not in done]
     bar = tqdm(todo, desc=f"{study} runs", unit="run", disable=not progress)
     for name, seed in bar:
+        now = read_results(path, study) or results  # another process may have run it since
+        if (name, int(seed)) in {_run_id(r, RUN_KEY) for r in now["runs"]}:
+            continue
         bar.set_postfix(config=name, seed=seed)
         params = spec.configs[name]
         record = None
@@ -260,13 +490,13 @@ def run_study(study: str, configs: Sequence[str] | None = None,
         else:  # records made before runs noted their size get it from the protocol
             record = {**protocol.updated(params).run_size(), **record}
         results["runs"].append({"config": name, "params": params, **record})
-        _write(path, results)
+        results = update_results(path, results, RUN_KEY)
         if progress:
             origin = f", copied from {record['reused_from']}" if "reused_from" in record else ""
             tqdm.write(f"{study}/{name} seed {seed}: test IoU@0.3 "
                        f"{record['metrics']['iou@0.3']:.3f} ({record['train_seconds']:.0f} s"
                        f"{origin})")
     if not todo:
-        _write(path, results)
+        update_results(path, results, RUN_KEY)
     return path
 

@@ -14,6 +14,7 @@ Command line: ``python -m e2vlib.experiments.shipping STUDY CONFIG SEED OUT``.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -66,18 +67,29 @@ def ship_checkpoint(study: str, config: str, seed: int, out: str | os.PathLike,
                            provenance=provenance, **extra)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m e2vlib.experiments.shipping STUDY CONFIG SEED OUT``."""
-    parser = argparse.ArgumentParser(prog="python -m e2vlib.experiments.shipping",
-                                     description=__doc__.split("\n\n")[0])
+def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.ArgumentParser
+                 ) -> argparse.ArgumentParser:
+    """The parser of ``python -m e2vlib.experiments.shipping`` (its ``func`` ships the
+    checkpoint); ``parser_class`` makes its errors (the command line's is one line)."""
+    parser = parser_class(prog="python -m e2vlib.experiments.shipping",
+                          description=__doc__.split("\n\n")[0])
     parser.add_argument("study")
     parser.add_argument("config")
     parser.add_argument("seed", type=int)
     parser.add_argument("out", help="the checkpoint to write (.pt)")
-    args = parser.parse_args(argv)
-    path = ship_checkpoint(args.study, args.config, args.seed, args.out)
-    print(f"wrote {path}")
-    return 0
+    parser.set_defaults(func=lambda args: print(
+        f"wrote {ship_checkpoint(args.study, args.config, args.seed, args.out)}"))
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m e2vlib.experiments.shipping STUDY CONFIG SEED OUT``; errors are one line
+    on stderr (exit status 1; 2 for a bad command line), as the command line's
+    (:func:`e2vlib.cli.errors.run`; ``--debug`` shows the traceback)."""
+    # the command line's error wrapper; imported by name, as the lab sits below the cli
+    errors = importlib.import_module("e2vlib.cli.errors")
+    return errors.run(lambda: build_parser(errors.Parser),
+                      None if argv is None else list(argv))
 
 
 if __name__ == "__main__":

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
+from collections.abc import Callable, Hashable
 from pathlib import Path
 
 import numpy as np
@@ -13,11 +15,53 @@ import numpy as np
 from e2vlib.metrics import interval95
 
 
+def _seed(value: object) -> object:
+    """A seed as recorded, ``"0"`` read as 0 (other values as they are)."""
+    return int(value.strip()) if isinstance(value, str) and value.strip().isdigit() else value
+
+
+def run_key(run: dict) -> tuple:
+    """What names a training run: ``(config, seed)``, a seed recorded as text read as a number."""
+    return run.get("config"), _seed(run.get("seed"))
+
+
+def unique_runs(runs: list[dict], key: Callable[[dict], Hashable] = run_key,
+                source: str = "the results") -> list[dict]:
+    """``runs`` with each ``key`` once (its first record), warning when any was left out.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> runs = [{"config": "a", "seed": 0}, {"config": "a", "seed": "0"}]
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     len(unique_runs(runs))
+    1
+    >>> print(caught[0].message)
+    the results: ignored 1 duplicate record(s): a seed 0 (each run counts once; remove the \
+copies from the file)
+    """
+    kept: dict[Hashable, dict] = {}
+    copies = []
+    for run in runs:
+        name = key(run)
+        if name in kept:
+            copies.append(" seed ".join(map(str, name)) if isinstance(name, tuple) else name)
+        else:
+            kept[name] = run
+    if copies:
+        warnings.warn(f"{source}: ignored {len(copies)} duplicate record(s): "
+                      f"{', '.join(map(str, copies))} (each run counts once; remove the copies "
+                      "from the file)", stacklevel=3)
+    return list(kept.values())
+
+
 def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> list[dict]:
     """Mean, standard deviation and 95 % interval of ``metric`` per config, in study order.
 
     Each row: ``{"config", "params", "n", "mean", "std", "ci95": (low, high), "values"}``;
     the interval is Student's t over the seeds (``std`` with ``ddof=1``; NaN for one seed).
+    Each (config, seed) counts once (:func:`unique_runs` warns about copies).
 
     Examples
     --------
@@ -30,10 +74,11 @@ def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> lis
     [0.37, 0.47]
     """
 
+    source = "the results"
     if not isinstance(results, dict):
-        results = json.loads(Path(results).read_text())
+        source, results = str(results), json.loads(Path(results).read_text())
     rows: dict[str, dict] = {}
-    for run in results["runs"]:
+    for run in unique_runs(results["runs"], source=source):
         row = rows.setdefault(run["config"], {"config": run["config"],
                                               "params": run.get("params", {}), "values": []})
         row["values"].append(float(run["metrics"][metric]))

@@ -25,6 +25,7 @@ Introduced in notebooks/05_the_e2v_model.ipynb.
 from __future__ import annotations
 
 import os
+import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -32,9 +33,15 @@ from typing import Any
 import torch
 
 from e2vlib.data.config import FRAME_FIELDS, frame_settings
-from e2vlib.files import atomic_path
+from e2vlib.files import atomic_path, input_file
 from e2vlib.model.config import E2VConfig
-from e2vlib.model.integrity import DIGEST_KEY, CheckpointError, verify_weights, weights_digest
+from e2vlib.model.integrity import (
+    DIGEST_KEY,
+    CheckpointError,
+    check_state_matches,
+    verify_weights,
+    weights_digest,
+)
 from e2vlib.model.networks import E2V
 
 DATA_CONFIG_KEY = "data_config"
@@ -42,6 +49,12 @@ DATA_CONFIG_KEY = "data_config"
 
 RESERVED_KEYS = ("config", "model", DIGEST_KEY, DATA_CONFIG_KEY)
 """Keys :func:`save_checkpoint` writes itself; ``extra`` may not use them."""
+
+MAX_INFLATION = 4
+"""Most times its own size a checkpoint's zip members may declare, all together.
+``torch.save`` stores them uncompressed (their sizes add up to the file's), so a member
+that inflates beyond this (1.5 MB into 1.6 GB) was not written by torch and is refused
+before ``torch.load`` reads it."""
 
 SLIM_KEEP = ("history", "metadata", "recipe", "epoch", "best_iou", "seed", "loss")
 """Entries :func:`slim_checkpoint` copies by default (besides config, weights, data config)."""
@@ -133,9 +146,11 @@ def read_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     if path.is_dir():
         raise CheckpointError(f"checkpoint {path} is a directory; give the file inside it, "
                               f"e.g. {path / 'best.pt'}")
-    if not path.is_file():
+    if not path.exists() and not path.is_symlink():
         raise FileNotFoundError(f"checkpoint {path} does not exist; train one first "
                                 "(python -m e2vlib train ... writes OUT/best.pt) or fix the path")
+    input_file(path, "checkpoint")  # a FIFO, a device, a link loop: say what it is
+    _check_archive(path)
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
     except Exception as err:  # zip/pickle errors come in many types
@@ -150,6 +165,26 @@ def read_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     if verify:
         verify_weights(ckpt, f"checkpoint {path}")
     return ckpt
+
+
+def _check_archive(path: Path) -> None:
+    """Refuse a checkpoint whose zip members declare more than :data:`MAX_INFLATION` times
+    the file's size, before ``torch.load`` inflates them (a damaged zip is left to it)."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = archive.infolist()
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return  # an older (non-zip) torch file, or a damaged one: torch.load reports it
+    declared = sum(m.file_size for m in members)
+    size = path.stat().st_size
+    if declared > MAX_INFLATION * size:
+        biggest = max(members, key=lambda m: m.file_size)
+        raise CheckpointError(
+            f"checkpoint {path}: its zip members declare {declared} bytes, more than "
+            f"model.MAX_INFLATION = {MAX_INFLATION} times the file's {size} bytes (member "
+            f"{biggest.filename!r} inflates {biggest.compress_size} bytes to "
+            f"{biggest.file_size}); torch.save never compresses, so the file was not written "
+            "by it: re-create it with save_checkpoint")
 
 
 def load_checkpoint(path: str | os.PathLike, map_location: str | torch.device = "cpu") -> E2V:
@@ -197,6 +232,7 @@ def model_from_checkpoint(ckpt: dict, map_location: str | torch.device = "cpu",
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
+    check_state_matches(ckpt, source)  # on the meta device: sizes, names, dtypes
     try:
         model = E2V(E2VConfig.from_dict(dict(ckpt["config"])))
         model.load_state_dict(ckpt["model"])
@@ -233,9 +269,10 @@ big.stat().st_size
     Introduced in notebooks/06_training.ipynb.
     """
     ckpt = read_checkpoint(src)
+    check_state_matches(ckpt, f"checkpoint {src}")  # validates the stored config
     state = {k: v.half() if half and v.is_floating_point() else v
              for k, v in ckpt["model"].items()}
-    config = E2VConfig.from_dict(dict(ckpt["config"]))  # validates the stored config
+    config = E2VConfig.from_dict(dict(ckpt["config"]))
     extra = {k: ckpt[k] for k in keep if k in ckpt and k not in RESERVED_KEYS}
     path = Path(dst)
     path.parent.mkdir(parents=True, exist_ok=True)

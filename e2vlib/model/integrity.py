@@ -23,6 +23,12 @@ from e2vlib.model.networks import E2V
 DIGEST_KEY = "weights_sha256"
 """Checkpoint key of the weights' SHA-256 digest (hex string)."""
 
+MAX_PARAMETERS: int = 600_000_000
+"""Most parameters a checkpoint's config may describe (600 M: 2.4 GB of float32 weights,
+four times the paper's 149.8 M). The digest covers the weights, not the config, so an
+edited config (a base width of 4096) is counted on the meta device and refused before
+any model is built."""
+
 
 class CheckpointError(ValueError):
     """A checkpoint file cannot be read, is corrupted, or does not describe an E2V model.
@@ -135,6 +141,84 @@ bad parameter is 'w' (1 NaN and 0 inf of 2 values). ...
                     "them predicts NaN. The training run diverged (retrain with a lower "
                     "learning rate) or the file is damaged; use an earlier checkpoint such "
                     "as best.pt.")
+
+
+def expected_state(config: Any, source: object = "checkpoint") -> dict[str, torch.Tensor]:
+    """The state dict (meta tensors: names, shapes, dtypes; nothing allocated) of the E2V
+    that ``config`` describes. :class:`CheckpointError` naming ``source`` for a config
+    that is not an E2V config or that has more than :data:`MAX_PARAMETERS` parameters.
+
+    Examples
+    --------
+    >>> from e2vlib.model.networks import build_e2v
+    >>> config = build_e2v("tiny", input_shape=(16, 32, 32)).config.to_dict()
+    >>> expected_state(config)["head.weight"].shape
+    torch.Size([1, 4, 1, 1, 1])
+    >>> expected_state({**config, "base_width": 4096}, "m.pt")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.model.integrity.CheckpointError: m.pt: its config describes a model of ...
+    """
+    try:
+        e2v_config = E2VConfig.from_dict(dict(config))
+        with torch.device("meta"):  # shapes only: nothing is allocated
+            model = E2V(e2v_config)
+    except (ValueError, TypeError, KeyError) as err:
+        raise CheckpointError(f"{source} does not match an E2V model: its config is not "
+                              f"valid ({err}); re-create it with save_checkpoint") from None
+    n_parameters = sum(p.numel() for p in model.parameters())
+    if n_parameters > MAX_PARAMETERS:
+        raise CheckpointError(
+            f"{source}: its config describes a model of {n_parameters} parameters, more than "
+            f"model.MAX_PARAMETERS = {MAX_PARAMETERS}; the config was edited or comes from "
+            "another program: re-create the checkpoint with save_checkpoint")
+    return model.state_dict()
+
+
+def check_state_matches(ckpt: Mapping[str, Any], source: object = "checkpoint") -> None:
+    """Raise :class:`CheckpointError` naming ``source`` and the first bad entry unless
+    ``ckpt["model"]`` holds exactly the tensors its ``ckpt["config"]`` describes: the same
+    names and shapes, and floating-point values where the model has floating-point ones
+    (int or bool weights would be cast to 0/1 in silence). Checked on the meta device,
+    before any model is built (:func:`expected_state`).
+
+    Examples
+    --------
+    >>> from e2vlib.model.networks import build_e2v
+    >>> model = build_e2v("tiny", input_shape=(16, 32, 32), seed=0)
+    >>> ckpt = {"config": model.config.to_dict(), "model": model.state_dict()}
+    >>> check_state_matches(ckpt)  # all well
+    >>> ckpt["model"]["head.weight"] = ckpt["model"]["head.weight"].int()
+    >>> check_state_matches(ckpt, "m.pt")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.model.integrity.CheckpointError: m.pt does not match an E2V model: 'head.weight' ...
+    """
+    expected = expected_state(ckpt["config"], source)
+    state = ckpt["model"]
+    if not isinstance(state, Mapping):
+        raise CheckpointError(f"{source}: 'model' must be a state dict, got "
+                              f"{type(state).__name__}. Re-create it with save_checkpoint.")
+    missing = sorted(set(expected) - set(state))
+    unexpected = sorted(set(state) - set(expected))
+    problem = "; ".join(([f"the weights lack {missing[:5]}"] if missing else [])
+                        + ([f"unexpected weights {unexpected[:5]}"] if unexpected else []))
+    for name, want in expected.items():
+        got = state.get(name)
+        if problem or got is None:
+            break
+        if not isinstance(got, torch.Tensor):
+            problem = f"{name!r} is a {type(got).__name__}, not a tensor"
+        elif want.is_floating_point() and not got.is_floating_point():
+            problem = (f"{name!r} holds {got.dtype} values where the model has {want.dtype} "
+                       "ones; they would be cast in silence (to 0/1 for bool)")
+        elif tuple(got.shape) != tuple(want.shape):
+            problem = (f"size mismatch for {name}: shape {list(got.shape)} in the file, "
+                       f"{list(want.shape)} from its config")
+    if problem:
+        raise CheckpointError(f"{source} does not match an E2V model: {problem}; the file "
+                              "was edited or comes from another program: re-create it with "
+                              "save_checkpoint")
 
 
 def _key_problems(ckpt: Mapping[str, Any]) -> str:

@@ -253,7 +253,7 @@ def view_reconstructions(truths, predictions, threshold: float = paper.IOU_THRES
                          link: bool = True):
     """Ground truth (top row) above prediction (bottom row), one column per object.
 
-    The layout of the paper's Figure 3. ``truths`` and ``predictions`` are one grid
+    The layout of the paper's Figure 4. ``truths`` and ``predictions`` are one grid
     ``(R, R, R)`` or sequences/stacks of ``n`` grids; predictions are probabilities,
     drawn where ``>= threshold`` and coloured by value (one probability bar, in the last
     panel), each panel titled with its IoU at ``threshold``. With ``link`` all ``2 n``

@@ -5,12 +5,12 @@ WRONG = {
     1: """answer_1 = {"groups": 4, "starts": [0, 12, 30, 41],
             "fixed_windows": 9, "empty_windows": 3}
 """,
-    # non-empty fixed windows counted as if they were Eq. 5 groups
+    # a window without an Eq. 5 group taken as an empty window (1 - groups / windows)
     2: """answer_2 = {}
 for dt in (100, 200, 500, 1000, 2000, 5000):
     n_windows = paper.RECORDING_US // dt
-    per_window = np.bincount((events["t"] - t0) // dt, minlength=n_windows)[:n_windows]
-    answer_2[dt] = (float(np.mean(per_window == 0)), int(np.sum(per_window > 0)))
+    n_groups = len(frames.paper_group_bounds(events["t"], dt)) - 1
+    answer_2[dt] = (1 - n_groups / n_windows, n_groups)
 """,
     # kept the paper's 100 frames, so the stream is cut after 0.5 s
     3: """paused = events.copy()

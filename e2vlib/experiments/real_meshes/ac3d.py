@@ -5,10 +5,16 @@ Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import trimesh
 
-from e2vlib.experiments.real_meshes.catalogue import RealMeshError
+from e2vlib.experiments.real_meshes.catalogue import RealMeshError, check_model_extent
+
+MAX_AC3D_DEPTH = 64
+"""Deepest nesting of AC3D objects read, in levels (``kids`` inside ``kids``; the
+crrcsim-data aircraft nest a few levels)."""
 
 
 def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
@@ -19,7 +25,9 @@ def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
     vectors). Polygon surfaces (``SURF`` type 0) are fanned into triangles; line surfaces
     (types 1 and 2) have no area and are left out. Materials and textures are not read.
     Raises :class:`RealMeshError` naming ``where`` and the line for text that does not
-    parse or holds no polygon.
+    parse: a count (``numvert``, ``numsurf``, ``refs``, ``kids``) that is not a whole number
+    or more than the lines left can hold, objects nested deeper than
+    :data:`MAX_AC3D_DEPTH`, or no polygon (:func:`check_model_extent` for the vertices).
 
     Examples
     --------
@@ -37,91 +45,132 @@ def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
     ...
     e2vlib.experiments.real_meshes.catalogue.RealMeshError: plane.ac: not an AC3D file ...
     """
-    lines = text.splitlines()
-    if not lines or not lines[0].startswith("AC3D"):
+    reader = _Lines(text, where)
+    if not reader.lines or not reader.lines[0].startswith("AC3D"):
         raise RealMeshError(f"{where}: not an AC3D file (no AC3D header)")
+    reader.skip_to_object()
+    if reader.pos == len(reader.lines):
+        raise RealMeshError(f"{where}: no OBJECT in the file")
     vertices: list[np.ndarray] = []
     faces: list[list[int]] = []
-    pos = 1
+    _read_object(reader, np.eye(4), vertices, faces, depth=1)
+    if not faces:
+        raise RealMeshError(f"{where}: the file holds no polygon surface")
+    check_model_extent(np.concatenate(vertices), where)
+    return trimesh.Trimesh(np.concatenate(vertices), np.array(faces), process=True)
 
-    def fail(message: str) -> RealMeshError:
-        return RealMeshError(f"{where} line {pos + 1}: {message}")
 
-    def numbers(line: str, count: int) -> list[float]:
+class _Lines:
+    """The lines of an AC3D file and a cursor (``pos``: the next line to read); every
+    error it makes names the file and the line just read."""
+
+    def __init__(self, text: str, where: str):
+        self.lines, self.where, self.pos = text.splitlines(), where, 1
+
+    def fail(self, message: str) -> RealMeshError:
+        return RealMeshError(f"{self.where} line {self.pos}: {message}")
+
+    def next(self, what: str) -> str:
+        """The next line, stripped (the cursor moves past it)."""
+        if self.pos >= len(self.lines):
+            raise RealMeshError(f"{self.where}: the file ends where {what} should be "
+                                f"(after line {len(self.lines)})")
+        self.pos += 1
+        return self.lines[self.pos - 1].strip()
+
+    def skip_to_object(self) -> None:
+        """Move the cursor to the next ``OBJECT`` line (or the end)."""
+        while self.pos < len(self.lines) and not self.lines[self.pos].startswith("OBJECT"):
+            self.pos += 1
+
+    def numbers(self, line: str, count: int) -> list[float]:
+        """The first ``count`` finite numbers of ``line``."""
         try:
             values = [float(v) for v in line.split()[:count]]
         except ValueError:
             values = []
         if len(values) != count or not all(np.isfinite(values)):
-            raise fail(f"expected {count} numbers, got {line!r}")
+            raise self.fail(f"expected {count} numbers, got {line[:80]!r}")
         return values
 
-    def read_object(parent: np.ndarray) -> None:
-        nonlocal pos
-        local, own, kids = np.eye(4), None, 0
-        while pos < len(lines):
-            line = lines[pos].strip()
-            word = line.split(" ", 1)[0]
-            pos += 1
-            if word == "loc":
-                local[:3, 3] = numbers(line[4:], 3)
-            elif word == "rot":
-                local[:3, :3] = np.reshape(numbers(line[4:], 9), (3, 3))
-            elif word == "data":
-                pos += 1  # the data string's line
-            elif word == "numvert":
-                n = int(numbers(line[8:], 1)[0])
-                own = np.array([numbers(lines[pos + k], 3) for k in range(n)])
-                pos += n
-            elif word == "numsurf":
-                for _ in range(int(numbers(line[8:], 1)[0])):
-                    pos = _read_surface(lines, pos, faces, sum(map(len, vertices)),
-                                        0 if own is None else len(own), fail)
-            elif word == "kids":
-                kids = int(numbers(line[5:], 1)[0])
-                break
-        transform = parent @ local
-        if own is not None and len(own):
-            vertices.append(trimesh.transform_points(own, transform))
-        for _ in range(kids):
-            while pos < len(lines) and not lines[pos].startswith("OBJECT"):
-                pos += 1
-            if pos == len(lines):
-                raise fail("fewer objects than its kids line says")
-            pos += 1
-            read_object(transform)
-
-    while pos < len(lines) and not lines[pos].startswith("OBJECT"):
-        pos += 1
-    if pos == len(lines):
-        raise RealMeshError(f"{where}: no OBJECT in the file")
-    pos += 1
-    read_object(np.eye(4))
-    if not faces:
-        raise RealMeshError(f"{where}: the file holds no polygon surface")
-    return trimesh.Trimesh(np.concatenate(vertices), np.array(faces), process=True)
+    def count(self, line: str, lines_each: int) -> int:
+        """The whole number after the keyword of ``line``: at least 0 and at most what the
+        lines left can hold (``lines_each`` lines per item)."""
+        fields = line.split()
+        if len(fields) != 2 or not re.fullmatch(r"\d{1,18}", fields[1]):
+            raise self.fail(f"{fields[0]} needs one whole number >= 0, got {line[:80]!r}")
+        n, room = int(fields[1]), (len(self.lines) - self.pos) // lines_each
+        if n > room:
+            raise self.fail(f"{fields[0]} {n} is more than the {room} the "
+                            f"{len(self.lines) - self.pos} lines left can hold")
+        return n
 
 
-def _read_surface(lines: list[str], pos: int, faces: list[list[int]], offset: int,
-                  n_vertices: int, fail) -> int:
-    """Read one ``SURF`` block from line ``pos``; fan its polygon into ``faces`` (vertex
-    indices shifted by ``offset``); return the line after it."""
-    if not lines[pos].startswith("SURF"):
-        raise fail(f"expected SURF, got {lines[pos]!r}")
+def _read_object(reader: _Lines, parent: np.ndarray, vertices: list[np.ndarray],
+                 faces: list[list[int]], depth: int) -> None:
+    """Read the object whose ``OBJECT`` line was just read, and its kids, into ``vertices``
+    (moved by ``parent`` and its own ``loc``/``rot``) and ``faces``."""
+    if depth > MAX_AC3D_DEPTH:
+        raise reader.fail(f"objects nest deeper than MAX_AC3D_DEPTH ({MAX_AC3D_DEPTH} "
+                          "levels); the file is damaged")
+    local, own, kids = np.eye(4), None, 0
+    offset = sum(map(len, vertices))
+    while reader.pos < len(reader.lines):
+        line = reader.next("a keyword")
+        word = line.split(" ", 1)[0]
+        if word == "loc":
+            local[:3, 3] = reader.numbers(line[4:], 3)
+        elif word == "rot":
+            local[:3, :3] = np.reshape(reader.numbers(line[4:], 9), (3, 3))
+        elif word == "data":
+            reader.next("the data string")
+        elif word == "numvert":
+            if own is not None:
+                raise reader.fail("a second numvert in one object")
+            n = reader.count(line, 1)
+            own = np.array([reader.numbers(reader.next("a vertex"), 3) for _ in range(n)]
+                           ).reshape(-1, 3)
+        elif word == "numsurf":
+            for _ in range(reader.count(line, 2)):
+                _read_surface(reader, faces, offset, 0 if own is None else len(own))
+        elif word == "kids":
+            kids = reader.count(line, 1)
+            break
+    transform = parent @ local
+    if own is not None and len(own):
+        vertices.append(trimesh.transform_points(own, transform))
+    for _ in range(kids):
+        reader.skip_to_object()
+        if reader.pos == len(reader.lines):
+            raise reader.fail("fewer objects than its kids line says")
+        reader.pos += 1
+        _read_object(reader, transform, vertices, faces, depth + 1)
+
+
+def _read_surface(reader: _Lines, faces: list[list[int]], offset: int,
+                  n_vertices: int) -> None:
+    """Read one ``SURF`` block; fan its polygon into ``faces`` (vertex indices shifted by
+    ``offset``)."""
+    line = reader.next("SURF")
+    if not line.startswith("SURF"):
+        raise reader.fail(f"expected SURF, got {line[:80]!r}")
     try:
-        kind = int(lines[pos].split()[1], 16) & 0xF
+        kind = int(line.split()[1], 16) & 0xF
     except (IndexError, ValueError):
-        raise fail(f"bad SURF flags {lines[pos]!r}") from None
-    pos += 1
-    while pos < len(lines) and not lines[pos].startswith("refs"):
-        pos += 1  # mat
-    if pos == len(lines):
-        raise fail("a SURF without refs")
-    n = int(lines[pos].split()[1])
-    refs = [int(lines[pos + 1 + k].split()[0]) for k in range(n)]
-    if any(not 0 <= r < n_vertices for r in refs):
-        raise fail(f"a surface refers to vertices outside 0..{n_vertices - 1}")
+        raise reader.fail(f"bad SURF flags {line[:80]!r}") from None
+    line = reader.next("refs")
+    while not line.startswith("refs"):
+        line = reader.next("refs")  # mat
+    n = reader.count(line, 1)
+    refs = []
+    for _ in range(n):
+        fields = reader.next("a vertex reference").split()
+        if not fields or not re.fullmatch(r"\d{1,18}", fields[0]):
+            raise reader.fail(f"a vertex reference must be a whole number, got {fields[:1]}")
+        refs.append(int(fields[0]))
+        if refs[-1] >= n_vertices:
+            raise reader.fail(f"a surface refers to vertex {refs[-1]}, outside "
+                              f"0..{n_vertices - 1}")
     if kind == 0:
         faces.extend([offset + refs[0], offset + refs[k], offset + refs[k + 1]]
                      for k in range(1, n - 1))
-    return pos + 1 + n

@@ -19,7 +19,7 @@ import os
 import posixpath
 import re
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -59,7 +59,23 @@ LIBRARY_LICENCES = {
 """Each library's licence, as its ``LICENSE.TXT`` and Debian's copyright file state it
 (``crrcsim-data``: its copyright file, ``Files: *``)."""
 MAX_MODEL_BYTES = 64 << 20
-"""Largest OBJ member read from a library (the biggest installed one is about 20 MB)."""
+"""Largest OBJ member read from a library, and largest AC3D file, in bytes (the biggest
+installed one is about 20 MB)."""
+MAX_CATALOGUE_BYTES = 16 << 20
+"""Largest :data:`CATALOGUE_FILE` read from a library, in bytes (the installed ones are
+under 1 MB)."""
+MAX_LICENCE_BYTES = 1 << 20
+"""Largest licence file read from a model's folder, in bytes (Blend Swap's are a few KB)."""
+MIN_MODEL_EXTENT = 1e-4
+"""Smallest longest side of a model as stored, in its own units (mm, cm or m): trimesh
+welds vertices closer than 1e-8, so a smaller model collapses to a point."""
+MAX_MODEL_COORDINATE = 1e9
+"""Largest absolute vertex coordinate of a model as stored or scaled to its catalogue size,
+in its own units: trimesh's vertex welding overflows int64 above about 9.2e10."""
+ZIP_METHODS = {zipfile.ZIP_STORED: "stored", zipfile.ZIP_DEFLATED: "deflated"}
+"""Compression methods read from a library (Sweet Home 3D writes deflated members); others
+(bzip2, lzma) are refused, as they cannot be inflated a bounded piece at a time."""
+_CHUNK = 1 << 20  # bytes inflated per read of a zip member
 
 CRRCSIM_DIR = Path("/usr/share/games/crrcsim/objects")
 """Where Debian's ``crrcsim-data`` installs its AC3D (``.ac``) model aircraft."""
@@ -84,6 +100,97 @@ class RealMeshError(ValueError):
     ...     print(str(err).split(": ")[1].split(" (")[0])
     not a readable .sh3f zip
     """
+
+
+def open_library(path: str | os.PathLike) -> zipfile.ZipFile:
+    """The ``.sh3f`` zip at ``path``, open; :class:`RealMeshError` naming the file when it
+    is not a readable zip (close it after use: ``with open_library(path) as zf``)."""
+    try:
+        return zipfile.ZipFile(path)
+    except Exception as err:  # zipfile raises BadZipFile, OSError, ValueError, EOFError...
+        raise RealMeshError(f"{path}: not a readable .sh3f zip ({type(err).__name__}: "
+                            f"{err}); reinstall it with {INSTALL_HINT} --reinstall") from err
+
+
+def read_member(zf: zipfile.ZipFile, name: str, limit: int, where: str) -> bytes:
+    """The bytes of member ``name`` of the open library ``zf``, at most ``limit`` of them.
+
+    The size the zip declares is checked before anything is read, and the member is
+    inflated a piece at a time, so a member that inflates past its declared size stops at
+    ``limit``. Raises :class:`RealMeshError` naming ``where`` and the member when it is
+    missing, larger than ``limit``, compressed by a method not in :data:`ZIP_METHODS`, or
+    damaged.
+
+    Examples
+    --------
+    >>> import io
+    >>> buffer = io.BytesIO()
+    >>> with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as zf:
+    ...     zf.writestr("big.txt", b"0" * 5000)
+    >>> read_member(zipfile.ZipFile(buffer), "big.txt", 4096, "lib.sh3f")
+    Traceback (most recent call last):
+    ...
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: lib.sh3f: big.txt is 5000 bytes, \
+more than the bound of 4096 bytes; this is not one of Debian's libraries: reinstall it with \
+apt-get install sweethome3d-furniture --reinstall
+    """
+    fix = f"this is not one of Debian's libraries: reinstall it with {INSTALL_HINT} --reinstall"
+    try:
+        info = zf.getinfo(name)
+    except KeyError:
+        raise RealMeshError(f"{where}: {name} is missing from the library; reinstall it with "
+                            f"{INSTALL_HINT} --reinstall") from None
+    if info.file_size > limit:
+        raise RealMeshError(f"{where}: {name} is {info.file_size} bytes, more than the bound "
+                            f"of {limit} bytes; {fix}")
+    if info.compress_type not in ZIP_METHODS:
+        raise RealMeshError(f"{where}: {name} is compressed by zip method {info.compress_type}"
+                            f", not {' or '.join(ZIP_METHODS.values())}; {fix}")
+    parts, size = [], 0
+    try:
+        with zf.open(info) as member:
+            while chunk := member.read(_CHUNK):
+                size += len(chunk)
+                if size > limit:
+                    raise RealMeshError(f"{where}: {name} inflates past the bound of {limit} "
+                                        f"bytes (it declares {info.file_size}); {fix}")
+                parts.append(chunk)
+    except RealMeshError:
+        raise
+    except Exception as err:  # BadZipFile (CRC), zlib.error, RuntimeError (encrypted), EOFError
+        raise RealMeshError(f"{where}: {name} cannot be read ({type(err).__name__}: {err}); "
+                            f"{fix}") from err
+    return b"".join(parts)
+
+
+def check_model_extent(vertices: Sequence, where: str, cause: str = "as stored") -> None:
+    """Refuse (:class:`RealMeshError` naming ``where``) vertices that are not finite, reach
+    past :data:`MAX_MODEL_COORDINATE` or span less than :data:`MIN_MODEL_EXTENT`.
+
+    Examples
+    --------
+    >>> check_model_extent([[0, 0, 0], [1, 2, 3]], "box.obj")
+    >>> check_model_extent([[0, 0, 0], [1e-9, 0, 0]], "dot.obj")
+    Traceback (most recent call last):
+    ...
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: dot.obj: the model as stored spans \
+1e-09 units, less than MIN_MODEL_EXTENT (0.0001): it is degenerate or in far too small units
+    """
+    v = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    if len(v) == 0:
+        raise RealMeshError(f"{where}: the model {cause} has no vertices")
+    if not np.all(np.isfinite(v)):
+        raise RealMeshError(f"{where}: the model {cause} has NaN or infinite coordinates")
+    reach = float(np.abs(v).max())
+    if reach > MAX_MODEL_COORDINATE:
+        raise RealMeshError(f"{where}: the model {cause} reaches {reach:.3g} units from the "
+                            f"origin, more than MAX_MODEL_COORDINATE ({MAX_MODEL_COORDINATE:g}"
+                            "): its coordinates or catalogue size are absurd")
+    extent = float((v.max(axis=0) - v.min(axis=0)).max())
+    if extent < MIN_MODEL_EXTENT:
+        raise RealMeshError(f"{where}: the model {cause} spans {extent:.3g} units, less than "
+                            f"MIN_MODEL_EXTENT ({MIN_MODEL_EXTENT:g}): it is degenerate or in "
+                            "far too small units")
 
 
 @dataclass(frozen=True)
@@ -220,21 +327,21 @@ def read_catalogue(library: str | os.PathLike) -> list[CatalogueEntry]:
     [(1, 'Test#box', 'Box table', 'box/box.obj', (200.0, 100.0, 50.0), 'CC0-1.0')]
     """
     path = Path(library)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"{path} not found; the real meshes come from Debian's "
                                 f"package: {INSTALL_HINT}")
-    try:
-        with zipfile.ZipFile(path) as zf:
-            text = zf.read(CATALOGUE_FILE).decode("latin-1")
-    except KeyError:
-        raise RealMeshError(f"{path} holds no {CATALOGUE_FILE}: it is not a Sweet Home 3D "
-                            "furniture library") from None
-    except (zipfile.BadZipFile, OSError) as err:
-        raise RealMeshError(f"{path}: not a readable .sh3f zip ({err}); reinstall it with "
-                            f"{INSTALL_HINT} --reinstall") from err
+    if not path.is_file():
+        raise RealMeshError(f"{path} is not a regular file (a folder, pipe or device); give "
+                            f"the .sh3f library that {INSTALL_HINT} installs")
+    with open_library(path) as zf:
+        if CATALOGUE_FILE not in zf.namelist():
+            raise RealMeshError(f"{path} holds no {CATALOGUE_FILE}: it is not a Sweet Home 3D "
+                                "furniture library")
+        text = read_member(zf, CATALOGUE_FILE, MAX_CATALOGUE_BYTES, str(path)).decode("latin-1")
     props = parse_properties(text)
     licence = LIBRARY_LICENCES.get(path.name, props.get("license", ""))
-    numbers = sorted({int(m.group(1)) for k in props if (m := re.fullmatch(r"id#(\d+)", k))})
+    numbers = sorted({int(m.group(1)) for k in props
+                      if (m := re.fullmatch(r"id#(\d{1,9})", k))})
     entries = []
     for n in numbers:
         where = f"{path.name} entry #{n}"
@@ -357,12 +464,14 @@ def entry_licence(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE_D
     if entry.library == CRRCSIM:
         return entry.licence, CRRCSIM_COPYRIGHT
     model_dir = posixpath.dirname(entry.model) + "/"
-    with zipfile.ZipFile(Path(folder) / entry.library) as zf:
+    path = Path(folder) / entry.library
+    with open_library(path) as zf:
         files = sorted(n for n in zf.namelist() if n.startswith(model_dir)
                        and "licen" in posixpath.basename(n).lower())
         if not files:
             return entry.licence, "LICENSE.TXT"
-        return licence_from_text(zf.read(files[0]).decode("utf-8", "replace")), files[0]
+        text = read_member(zf, files[0], MAX_LICENCE_BYTES, f"{path} entry #{entry.number}")
+        return licence_from_text(text.decode("utf-8", "replace")), files[0]
 
 
 

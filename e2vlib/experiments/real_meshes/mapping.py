@@ -12,6 +12,7 @@ Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.
 from __future__ import annotations
 
 import csv
+import io
 import os
 import re
 from collections.abc import Iterable
@@ -41,6 +42,10 @@ MAPPING_FIELDS = ("id", "library", "entry_id", "name", "creator", "licence", "li
 and creator, its licence and the file inside the library that states it
 (:func:`entry_licence`), our category (one of the paper's 13), the pose (a key of
 :data:`POSES`), ``yes``/``no`` and what looking at the model showed."""
+
+
+MAX_MAPPING_BYTES = 4 << 20
+"""Largest mapping table read, in bytes (the reviewed one, 258 rows, is about 60 KB)."""
 
 
 @dataclass(frozen=True)
@@ -149,17 +154,40 @@ def read_mapping(path: str | os.PathLike = MAPPING_CSV, kept_only: bool = True
     23
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"mapping table {path} not found; the reviewed one is "
-                                "data_small/real/catalogue.csv")
-    with open(path, newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(f)
+    reader = csv.DictReader(io.StringIO(_table_text(path), newline=""))
+    try:
         if tuple(reader.fieldnames or ()) != MAPPING_FIELDS:
             raise RealMeshError(f"{path}: columns must be {', '.join(MAPPING_FIELDS)}, got "
                                 f"{reader.fieldnames}")
-        rows = check_mapping(reader, str(path))
+        rows = check_mapping(list(reader), str(path))
+    except csv.Error as err:
+        raise RealMeshError(f"{path} line {reader.line_num}: not a CSV row ({err}); save the "
+                            "table as UTF-8 CSV") from None
     return [r for r in rows if r.keep or not kept_only]
 
+
+def _table_text(path: Path) -> str:
+    """The text of the mapping table ``path`` (UTF-8, a byte-order mark allowed), refused
+    naming the file (and the line, for text that is not UTF-8) when it is not a regular file
+    of at most :data:`MAX_MAPPING_BYTES`."""
+    if not path.exists():
+        raise FileNotFoundError(f"mapping table {path} not found; the reviewed one is "
+                                "data_small/real/catalogue.csv")
+    if not path.is_file():
+        raise RealMeshError(f"mapping table {path} is not a regular file (a folder, pipe or "
+                            "device); give a CSV file such as data_small/real/catalogue.csv")
+    size = path.stat().st_size
+    if size > MAX_MAPPING_BYTES:
+        raise RealMeshError(f"mapping table {path} is {size} bytes, more than "
+                            f"MAX_MAPPING_BYTES ({MAX_MAPPING_BYTES}); give the reviewed "
+                            "table, data_small/real/catalogue.csv")
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        line = data.count(b"\n", 0, err.start) + 1
+        raise RealMeshError(f"{path} line {line}: not UTF-8 text (byte {data[err.start]:#04x}"
+                            f"); save the table as UTF-8 CSV") from None
 
 
 def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE_DIR,

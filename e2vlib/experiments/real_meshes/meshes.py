@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import io
 import os
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +27,9 @@ from e2vlib.experiments.real_meshes.catalogue import (
     MAX_MODEL_BYTES,
     CatalogueEntry,
     RealMeshError,
+    check_model_extent,
+    open_library,
+    read_member,
 )
 
 SH3D_TO_ZUP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
@@ -44,23 +46,12 @@ upright with its screen to the front (-y), as ShapeNet's and our procedural tele
 stand."""
 
 
-def _read_member(zf: zipfile.ZipFile, name: str, where: str) -> bytes:
-    try:
-        info = zf.getinfo(name)
-    except KeyError:
-        raise RealMeshError(f"{where}: {name} is missing from the library; reinstall it with "
-                            f"{INSTALL_HINT} --reinstall") from None
-    if info.file_size > MAX_MODEL_BYTES:
-        raise RealMeshError(f"{where}: {name} is {info.file_size} bytes, more than "
-                            f"real_meshes.MAX_MODEL_BYTES ({MAX_MODEL_BYTES})")
-    return zf.read(info)
-
-
 def obj_to_mesh(data: bytes, where: str = "OBJ") -> trimesh.Trimesh:
     """Every face of OBJ text ``data`` as one ``trimesh.Trimesh``, as stored (no materials:
     the renderer shades by geometry; parts and groups are merged, duplicate vertices welded).
 
-    Raises :class:`RealMeshError` for text with no triangles or NaN/inf vertices.
+    Raises :class:`RealMeshError` naming ``where`` for text with no triangles, or
+    vertices that :func:`check_model_extent` refuses (NaN/inf, too far, too small).
 
     Examples
     --------
@@ -85,8 +76,7 @@ def obj_to_mesh(data: bytes, where: str = "OBJ") -> trimesh.Trimesh:
         loaded = loaded.to_geometry()
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise RealMeshError(f"{where}: the OBJ holds no triangles")
-    if not np.all(np.isfinite(loaded.vertices)):
-        raise RealMeshError(f"{where}: the OBJ has NaN or infinite vertex coordinates")
+    check_model_extent(loaded.vertices, where)
     # merge the parts' duplicate vertices, so closed parts are watertight for voxelize
     return trimesh.Trimesh(loaded.vertices, loaded.faces, process=True)
 
@@ -156,20 +146,40 @@ def load_entry_mesh(entry: CatalogueEntry, folder: str | os.PathLike = FURNITURE
     if pose not in POSES:
         raise ValueError(f"pose must be one of {', '.join(POSES)}, got {pose!r}")
     if entry.library == CRRCSIM:  # an AC3D file on disk (entry.model: its path)
-        path = Path(entry.model)
-        if not path.is_file():
-            raise FileNotFoundError(f"{path} not found: crrcsim-data is not installed; "
-                                    f"{CRRCSIM_INSTALL_HINT}")
-        mesh = ac3d_to_mesh(path.read_text(encoding="latin-1"), str(path))
+        where = str(entry.model)
+        mesh = ac3d_to_mesh(_read_ac3d(Path(entry.model)), where)
         mesh.apply_transform(POSES[pose] @ SH3D_TO_ZUP)  # AC3D is y up too, nose to +z
-        return normalize_mesh(mesh) if normalize else mesh
-    path = Path(folder) / entry.library
+    else:
+        path = Path(folder) / entry.library
+        if not path.is_file():
+            raise FileNotFoundError(f"{path} not found: sweethome3d-furniture is not "
+                                    f"installed; {INSTALL_HINT}")
+        where = f"{entry.library} entry #{entry.number} ({entry.name})"
+        with open_library(path) as zf:
+            mesh = obj_to_mesh(read_member(zf, entry.model, MAX_MODEL_BYTES, where), where)
+        mesh.apply_transform(POSES[pose] @ entry_transform(entry, mesh.bounds))
+        check_model_extent(mesh.vertices, where, f"scaled to its catalogue size "
+                           f"{entry.size_cm} cm")
+    if not normalize:
+        return mesh
+    try:
+        return normalize_mesh(mesh)
+    except ValueError as err:
+        raise RealMeshError(f"{where}: {err}") from None
+
+
+def _read_ac3d(path: Path) -> str:
+    """The text of the AC3D file ``path``, refused before reading when it is not a regular
+    file or is larger than :data:`MAX_MODEL_BYTES`."""
+    if not path.exists():
+        raise FileNotFoundError(f"{path} not found: crrcsim-data is not installed; "
+                                f"{CRRCSIM_INSTALL_HINT}")
     if not path.is_file():
-        raise FileNotFoundError(f"{path} not found: sweethome3d-furniture is not installed; "
-                                f"{INSTALL_HINT}")
-    where = f"{entry.library} entry #{entry.number} ({entry.name})"
-    with zipfile.ZipFile(path) as zf:
-        mesh = obj_to_mesh(_read_member(zf, entry.model, where), where)
-    mesh.apply_transform(POSES[pose] @ entry_transform(entry, mesh.bounds))
-    return normalize_mesh(mesh) if normalize else mesh
+        raise RealMeshError(f"{path} is not a regular file (a folder, pipe or device); give "
+                            "an .ac file of crrcsim-data")
+    size = path.stat().st_size
+    if size > MAX_MODEL_BYTES:
+        raise RealMeshError(f"{path} is {size} bytes, more than MAX_MODEL_BYTES "
+                            f"({MAX_MODEL_BYTES}); it is not one of crrcsim-data's aircraft")
+    return path.read_bytes().decode("latin-1")
 
