@@ -49,7 +49,8 @@ imports: $(STAMP)
 
 # Lessons 00 and 08 in a real JupyterLab, driven by headless Chromium (Debian's chromium at
 # /usr/bin/chromium) through Playwright: every cell runs without error, the 3D views draw, the
-# explorer redraws. BROWSER_ARGS="--figures docs/figures" also renews the README's screenshots.
+# explorer redraws. BROWSER_ARGS="--figures docs/figures" also renews the developer guide's
+# screenshots.
 BROWSER_STAMP := $(VENV)/.browser-installed
 
 $(BROWSER_STAMP): environment/browser-requirements.txt $(STAMP)
@@ -65,7 +66,7 @@ browser: $(BROWSER_STAMP)
 # or all of them when the library, data_small/ or the recorded results changed;
 # any cell error fails the build with the lesson and the cell named. `make book-check` opens
 # every page in headless Chromium (tests/browser/check_book.py); BOOK_CHECK_ARGS="--figures
-# docs/figures" also renews the README's screenshots of the book.
+# docs/figures" also renews the screenshots of the book in docs/figures/.
 BOOK_STAMP := $(VENV)/.book-installed
 BOOK_MODE := $(if $(filter 1,$(QUICK)),quick,full)
 

@@ -1,9 +1,10 @@
-"""Sphinx configuration of the e2v notebooks book (``make book``; see book/README.md).
+"""Sphinx configuration of the e2v notebooks book (``make book``; docs/developer.md, "The book").
 
 The source folder is the repository root (``sphinx-build -c book . build/book``), so the
 lessons are read where they live (``notebooks/*.ipynb``) and run from there, finding
-``../data_small`` as in JupyterLab. Pages generated from the library (the README with its
-figures, the lesson map, the paper's facts) are written to ``book/_generated/`` first.
+``../data_small`` as in JupyterLab, and so are the guides (``docs/*.md``). Pages generated from
+the library (the README with its figures, the lesson map, the paper's facts) are written to
+``book/_generated/`` first.
 """
 
 from __future__ import annotations
@@ -43,7 +44,8 @@ author = "the e2v notebooks authors"
 copyright = "2026, the e2v notebooks authors; code MIT, lessons and figures CC BY 4.0"
 root_doc = "book/index"
 extensions = ["myst_nb"]
-include_patterns = ["book/index.md", "book/_generated/*.md", "notebooks/[0-9][0-9]_*.ipynb"]
+include_patterns = ["book/index.md", "book/_generated/*.md", "docs/*.md",
+                    "notebooks/[0-9][0-9]_*.ipynb"]
 exclude_patterns = ["build", ".venv", "**/.ipynb_checkpoints"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "html_image"]
 myst_heading_anchors = 3

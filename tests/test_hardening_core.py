@@ -211,6 +211,7 @@ def test_a_tiny_mesh_keeps_its_shape(tmp_path):
     np.testing.assert_array_equal(voxelize(normalize_mesh(tiny)), near)
 
 
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # trimesh, on the huge test mesh
 def test_absurd_coordinates_are_refused_naming_the_mesh(tmp_path):
     path = box_obj(tmp_path / "huge.obj", size=1e308)
     with pytest.raises(ValueError, match=rf"{path} has vertex coordinates up to 5e\+307, "

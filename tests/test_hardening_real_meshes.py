@@ -142,9 +142,9 @@ def test_make_data_with_two_workers_refuses_a_looping_aircraft(tmp_path):
          "--out", str(tmp_path / "out"), "--real-meshes", str(catalogue), "--resolution",
          "32", "--frame-size", "16", "--oversample", "2", "--workers", "2"],
         timeout=90, cwd=REPO)
-    assert status == 1, err
-    assert "ac line 8: numvert needs one whole number >= 0" in err
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    last = err.strip().splitlines()[-1]  # after the progress bar's lines
+    assert status == 1 and last.startswith("error: "), err
+    assert "ac line 8: numvert needs one whole number >= 0" in last and "Traceback" not in err
 
 
 # --- Bad: memory ----------------------------------------------------------------------------
@@ -315,9 +315,11 @@ def test_duplicated_and_unknown_records_are_not_counted():
 MALFORMED = {
     "numvert at the end": ("\n".join(ac3d_lines()[:8]), "line 8: numvert 4 is more than "
                            "the 0 the 0 lines left can hold"),
-    "refs at the end": ("\n".join(ac3d_lines()[:16]), "line 16: refs 4 is more than the 0"),
-    "SURF at the end": ("\n".join(ac3d_lines()[:13]) + "\nSURF 0x10",
-                        "the file ends where refs should be"),
+    "refs at the end": ("\n".join(ac3d_lines()[:12] + ["numsurf 1", "SURF 0", "mat 0",
+                                                        "refs 4"]),
+                        "line 16: refs 4 is more than the 0"),
+    "no refs at the end": ("\n".join(ac3d_lines()[:12] + ["numsurf 1", "SURF 0x10", "mat 0"]),
+                           "the file ends where refs should be .after line 15."),
     "a word for refs": (replaced("refs 4", "refs four"), "line 16: refs needs"),
     "a fraction for numvert": (replaced("numvert 4", "numvert 2.5"), "line 8: numvert needs"),
     "a word for a vertex reference": (replaced("2 1 1", "two 1 1"),
@@ -354,7 +356,7 @@ def _patch_member(path: Path, member: str, offset: int, value: bytes) -> None:
 
 def test_damaged_zip_members_are_real_mesh_errors_naming_the_entry(tmp_path):
     cases = {"crc": (14, b"\0\0\0\0", "cannot be read .BadZipFile: Bad CRC"),
-             "method": (8, (99).to_bytes(2, "little"), "compressed by zip method 99"),
+             "method": (8, (99).to_bytes(2, "little"), "is compressed by zip method 99"),
              "encrypted": (6, (1).to_bytes(2, "little"), "cannot be read .RuntimeError")}
     for case, (offset, value, message) in cases.items():
         folder = tmp_path / case
@@ -413,7 +415,7 @@ def test_flags_a_real_mesh_build_cannot_honour_are_refused(flag, tmp_path, capsy
     status = main(["make-data", "--out", str(tmp_path / "out"), "--real-meshes",
                    str(REPO / "data_small" / "real" / "catalogue.csv"), *extra])
     err = capsys.readouterr().err
-    assert status == 2 and f"{flag} ({reason})" in err, err
+    assert status == 2 and f"{flag} ({reason}" in err, err
     assert not (tmp_path / "out").exists()
 
 
@@ -432,8 +434,10 @@ def test_the_lab_commands_fail_in_one_line(tmp_path, capsys):
 
 
 def _obj(vertices: np.ndarray) -> bytes:
-    return trimesh.exchange.obj.export_obj(
-        trimesh.Trimesh(vertices, trimesh.creation.box().faces, process=False)).encode()
+    """An OBJ of the unit box's faces on ``vertices``, every digit kept."""
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices.tolist()]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in trimesh.creation.box().faces]
+    return ("\n".join(lines) + "\n").encode()
 
 
 def test_models_of_no_size_or_absurd_scale_are_refused_naming_the_entry(tmp_path):

@@ -295,6 +295,18 @@ def test_a_bad_record_is_refused_naming_file_run_and_key(tmp_path, change, says)
         reports.load_results("loss", tmp_path)
 
 
+def test_experiment_names_a_bad_record_in_one_line_instead_of_showing_it(capsys, tmp_path):
+    protocol = STUDIES["loss"].protocol(True).to_dict()
+    path = tmp_path / "loss.json"
+    path.write_text(json.dumps({"study": "loss", "protocol": protocol,
+                                "runs": [_run("bce", 0, 0.4), _run("bce", 1, 7.5)]}))
+    code, stdout, err = run(capsys, "experiment", "loss", "--configs", "bce", "--seeds", "0",
+                            "1", "--quick", "--out", tmp_path, "--device", "cpu")
+    assert code == 1 and stdout == ""
+    assert (f"{path}: run 2 (bce seed 1): metrics.iou@0.3 is 7.5, outside [0, 1]; correct or "
+            "remove that run") in err
+
+
 def test_a_nan_threshold_is_never_shipped(tmp_path):
     from e2vlib.experiments.shipping import ship_checkpoint
 

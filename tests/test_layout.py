@@ -129,7 +129,7 @@ def test_no_module_exceeds_600_lines():
     assert long == {}, f"split these modules by job (at most {MAX_LINES} lines): {long}"
 
 
-def test_the_module_map_in_the_package_docstring_and_the_readme_is_current():
+def test_the_module_map_in_the_package_docstring_and_the_developer_guide_is_current():
     sys.path.insert(0, str(PACKAGE.parent / "tools"))
     try:
         import module_map

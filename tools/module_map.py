@@ -1,8 +1,9 @@
 """The module map of e2vlib: every module, its lines and its purpose, generated from the code.
 
-The map stands in two places, ``e2vlib/__init__.py``'s docstring and the README's "Layout"
-section, each between the markers ``module map:`` and its end marker; ``--write`` rewrites
-both from the code, and ``tests/test_layout.py`` fails when either is out of date.
+The map stands in two places, ``e2vlib/__init__.py``'s docstring and the "Layout" section of
+the developer guide (``docs/developer.md``), each between the markers ``module map:`` and its
+end marker; ``--write`` rewrites both from the code, and ``tests/test_layout.py`` fails when
+either is out of date.
 
 Usage: ``python tools/module_map.py [--write]`` (prints the map; ``--write`` updates both).
 """
@@ -17,7 +18,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = REPO / "e2vlib"
 INIT = PACKAGE / "__init__.py"
-README = REPO / "README.md"
+DEVELOPER = REPO / "docs" / "developer.md"
 BEGIN, END = "<!-- module map: begin -->", "<!-- module map: end -->"
 DOC_BEGIN, DOC_END = "Module map (", "End of the module map."
 WIDTH = 92  # every line of the map fits the 100-character limit inside the docstring
@@ -109,7 +110,7 @@ def doc_block() -> str:
             + render(module_rows(), "    ") + f"\n\n{DOC_END}")
 
 
-def readme_block() -> str:
+def developer_block() -> str:
     return f"{BEGIN}\nLines per band: {band_summary()}.\n\n```\n{render(module_rows())}\n```\n{END}"
 
 
@@ -123,13 +124,14 @@ def replace_between(text: str, begin: str, end: str, block: str, where: Path) ->
 def current() -> dict[Path, str]:
     """The files as they would be with an up-to-date map."""
     return {INIT: replace_between(INIT.read_text(), DOC_BEGIN, DOC_END, doc_block(), INIT),
-            README: replace_between(README.read_text(), BEGIN, END, readme_block(), README)}
+            DEVELOPER: replace_between(DEVELOPER.read_text(), BEGIN, END, developer_block(),
+                                       DEVELOPER)}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--write", action="store_true", help="update e2vlib/__init__.py and "
-                        "README.md")
+                        "docs/developer.md")
     args = parser.parse_args()
     print(render(module_rows()))
     print(f"\nlines per band: {band_summary()}")

@@ -32,7 +32,7 @@ def render_readme_figures(out_dir, data_root, checkpoint, categories=README_CATE
     * ``reconstruction.png``: ground truth above the ``checkpoint``'s prediction for one
       test sample per category, the one with the median IoU at
       :data:`e2vlib.paper.IOU_THRESHOLD` of its category (a typical result, not the best),
-      in the layout of the paper's Figure 3.
+      in the layout of the paper's Figure 4.
 
     Every file is written to a temporary name and renamed. Raises ``FileNotFoundError``
     for a missing checkpoint and ``ValueError`` for categories without test samples or

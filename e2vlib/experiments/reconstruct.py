@@ -270,4 +270,5 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
     return Reconstruction(probabilities.astype(np.float32), frames, voxels)
 
 
-__all__ = ["InputError", "Reconstruction", "checkpoint_build_config", "reconstruct"]
+__all__ = ["MIN_FILLED_FRACTION", "InputError", "Reconstruction", "check_frames_filled",
+           "checkpoint_build_config", "reconstruct"]

@@ -304,18 +304,19 @@ def _run_id(run: dict, key: Sequence[str]) -> tuple:
 
 def merge_results(on_disk: dict | None, ours: dict, key: Sequence[str],
                   source: str | os.PathLike = "the results file") -> dict:
-    """``ours`` merged into what is ``on_disk``: every record of either, one per ``key``
-    (the disk's first; for one object, the methods of both under ``scores`` and
-    ``seconds``), the commands and checkpoints of both, the other fields ours.
+    """``ours`` merged into what is ``on_disk``: every record of either, one per ``key`` (in
+    the disk's order, then ours), the commands and checkpoints of both. Where both hold a
+    record, a field or a method's scores (``scores``, ``seconds``), ours is kept: it is the
+    newer. Records are only ever added: to drop one, ``finish`` of :func:`update_results`.
 
     Raises ValueError when the disk holds runs of another protocol.
 
     Examples
     --------
-    >>> disk = {"protocol": {}, "runs": [{"id": "a", "scores": {"hull": 1}}]}
+    >>> disk = {"protocol": {}, "runs": [{"id": "a", "scores": {"hull": 1, "best": 0}}]}
     >>> ours = {"protocol": {}, "runs": [{"id": "a", "scores": {"best": 2}}, {"id": "b"}]}
     >>> merge_results(disk, ours, ("id",))["runs"]
-    [{'id': 'a', 'scores': {'best': 2, 'hull': 1}}, {'id': 'b'}]
+    [{'id': 'a', 'scores': {'hull': 1, 'best': 2}}, {'id': 'b'}]
     """
     if on_disk is None:
         return ours
@@ -328,15 +329,16 @@ def merge_results(on_disk: dict | None, ours: dict, key: Sequence[str],
         merged["commands"] = list(dict.fromkeys([*on_disk.get("commands", []),
                                                  *ours.get("commands", [])]))
     if "checkpoints" in on_disk or "checkpoints" in ours:
-        merged["checkpoints"] = {**ours.get("checkpoints", {}),
-                                 **on_disk.get("checkpoints", {})}
+        merged["checkpoints"] = {**on_disk.get("checkpoints", {}),
+                                 **ours.get("checkpoints", {})}
     runs: dict[tuple, dict] = {}
     for run in [*on_disk["runs"], *ours["runs"]]:
-        first = runs.setdefault(_run_id(run, key), run)
-        if first is not run:
-            for part in ("scores", "seconds"):
-                if part in run or part in first:
-                    first[part] = {**run.get(part, {}), **first.get(part, {})}
+        name = _run_id(run, key)
+        earlier = runs.get(name, {})
+        runs[name] = {**earlier, **run}
+        for part in ("scores", "seconds"):
+            if part in run and part in earlier:
+                runs[name][part] = {**earlier[part], **run[part]}
     merged["runs"] = list(runs.values())
     return merged
 
@@ -439,6 +441,9 @@ def run_study(study: str, configs: Sequence[str] | None = None,
     already run by another study in ``out`` (``100x5ms`` of ``time`` is ``binary`` of
     ``representation``) is copied from there (:func:`find_same_run`) instead of trained again.
     The file's ``command`` is the latest invocation, ``commands`` every one that added runs.
+    Each record is merged into the file under a lock (:func:`update_results`), so studies run
+    at once into one file keep every record, and a run another process recorded meanwhile is
+    not trained again. A results path that cannot be a file is refused before any training.
     """
     from tqdm.auto import tqdm
 

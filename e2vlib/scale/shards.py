@@ -5,7 +5,7 @@ into one shared folder or one folder each. :func:`merge_datasets` (CLI ``merge-d
 checks that every shard was built with the same config, that every planned sample is
 present exactly once (a sample found in two shards must hold the same arrays), that each
 file loads, and writes the joined folder's manifest; missing samples are named with the
-``make-data`` command that builds them. See README "Sharded builds and grey video".
+``make-data`` command that builds them. See docs/developer.md, "Sharded builds and grey video".
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ def resolve_device(device: str | torch.device = "auto") -> torch.device:
     device = torch.device(device)
     if device.type == "cuda" and not torch.cuda.is_available():
         raise ValueError("device 'cuda' requested but torch.cuda.is_available() is False; "
-                         "use --device cpu or install a CUDA build of torch (README: GPU)")
+                         "use --device cpu or install a CUDA build of torch (docs/setup.md: GPU)")
     return device
 
 
