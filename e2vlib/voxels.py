@@ -78,13 +78,15 @@ def _check_mesh(mesh: trimesh.Trimesh) -> np.ndarray:
 
 
 MAX_FACES: int = 5_000_000
-"""Most triangles :func:`voxelize` takes (its per-triangle arrays take about 1 KB each, so
-5 GB; ShapeNet's largest meshes have about 1 M). Simplify larger meshes first."""
+"""Most triangles :func:`voxelize` takes: its per-triangle arrays take about 400 bytes each
+(2 GB at the bound; a 1.3 M-face sphere needs 0.5 GB and 7 s). Simplify larger meshes
+first."""
 
 MAX_RAY_TESTS: int = 200_000_000
 """Most (triangle, voxel column) pairs :func:`voxelize` tests, over all its ray axes
-(about 20 s). A normalized mesh needs a few per column (32^2 columns at resolution 32);
-millions of large triangles, or a mesh far larger than the grid cube, need more."""
+(about 35 s on one core; made ``_CHUNK`` at a time, so memory stays near 300 MB). A
+normalized mesh needs a few per column (32^2 columns at resolution 32); millions of large
+triangles, or a mesh far larger than the grid cube, need more."""
 
 _CHUNK = 1_000_000
 """Ray tests or surface points made at a time (about 250 MB of working arrays)."""

@@ -13,8 +13,8 @@ import pytest
 import torch
 import trimesh
 
-from e2vlib import voxels
 from e2vlib import io as event_io
+from e2vlib import voxels
 from e2vlib.data import BuildConfig
 from e2vlib.data.config import frame_settings
 from e2vlib.events import make_events

@@ -79,7 +79,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         ],
         "commands": ["build_command", "make_data_command"],
         "config": [
-            "FRAME_FIELDS", "LEGACY_WINDOWS", "MAX_PER_CATEGORY", "MAX_RESOLUTION", "BuildConfig",
+            "FRAME_FIELDS", "LEGACY_WINDOWS", "MAX_PER_CATEGORY", "MAX_RESOLUTION",
+            "MAX_VIDEO_BYTES", "BuildConfig",
             "dataset_config", "frame_settings",
         ],
         "dataset": ["E2VDataset", "Verification", "verify_dataset"],

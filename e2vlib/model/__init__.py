@@ -25,7 +25,9 @@ modules, each with one job:
 ``model.networks``         the whole network: :class:`E2V`, :func:`build_e2v`,
                            :func:`count_parameters`
 ``model.integrity``        is a checkpoint intact: :func:`weights_digest`,
-                           :func:`verify_weights` (digest and NaN checks),
+                           :func:`verify_weights` (digest and NaN checks), what a config's
+                           weights must be (:func:`expected_state`, built on the meta
+                           device; :func:`check_state_matches`, :data:`MAX_PARAMETERS`),
                            :class:`CheckpointError`, :data:`DIGEST_KEY`
 ``model.checkpoint``       checkpoint files: :func:`save_checkpoint`,
                            :func:`read_checkpoint` (verified on read),
@@ -54,7 +56,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "checkpoint": [
-            "DATA_CONFIG_KEY", "check_frames_match", "checkpoint_data_config",
+            "DATA_CONFIG_KEY", "MAX_INFLATION", "check_frames_match", "checkpoint_data_config",
             "load_checkpoint", "model_from_checkpoint", "read_checkpoint", "save_checkpoint",
             "slim_checkpoint",
         ],
@@ -66,7 +68,10 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "encoders": [
             "BasicBlock", "Bottleneck", "Frames2dEncoder", "Frames2dGRUEncoder", "ResNetEncoder",
         ],
-        "integrity": ["DIGEST_KEY", "CheckpointError", "verify_weights", "weights_digest"],
+        "integrity": [
+            "DIGEST_KEY", "MAX_PARAMETERS", "CheckpointError", "check_state_matches",
+            "expected_state", "verify_weights", "weights_digest",
+        ],
         "networks": ["E2V", "build_e2v", "count_parameters"],
         "summary": [
             "activation_bytes", "format_layer_table", "layer_table", "parameter_breakdown",
