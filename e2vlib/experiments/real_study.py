@@ -69,7 +69,7 @@ def countable_runs(runs: Sequence[dict], ids: Sequence[str] | None = None
     kept, seen, left_out = [], set(), []
     for run in runs:
         sid = run.get("id")
-        if sid in seen:
+        if sid is not None and sid in seen:  # (records without an id cannot be matched)
             left_out.append(f"{sid} (a second record)")
         elif wanted is not None and sid not in wanted:
             left_out.append(f"{sid} (not in the dataset)")

@@ -150,7 +150,7 @@ STUDIES: dict[str, Study] = {
         base={"recipe": "tiny_step_even", "preset": "tiny_norm"},
     ),
 }
-"""The studies of issues 12, 13, 15 and 25, by name."""
+"""The studies of lessons 09-13, by name."""
 
 
 COLLAPSE_IOU = 0.2
