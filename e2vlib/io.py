@@ -19,10 +19,9 @@ microseconds, polarity -1/+1, sorted by time, checked against the sensor size. T
 converted exactly where the file allows it (integers, and text seconds digit by digit).
 HDF5 times are in the ``t_unit`` attribute's unit (``s``, ``ms``, ``us``, ``ns``), else
 seconds for floats and microseconds for integers; the same rule, applied to its own dtype
-and attribute, gives the unit of DSEC's ``t_offset``. Whatever the route, a time
-outside int64 microseconds raises :class:`~e2vlib.events.EventError` instead of
-wrapping around. A file whose content is another format than its name says (an HDF5 file
-named ``.npz``) is reported as such, from its first bytes.
+and attribute, gives the unit of DSEC's ``t_offset``. A time outside int64 microseconds
+raises :class:`~e2vlib.events.EventError` instead of wrapping around. A file whose content
+is another format than its name says (an HDF5 file named ``.npz``) is reported as such.
 
 Introduced in notebooks/01_events.ipynb.
 """

@@ -423,7 +423,7 @@ def test_the_lab_commands_fail_in_one_line(tmp_path, capsys):
     from e2vlib.experiments.shipping import main as shipping_main
 
     assert real_study_main(["--data", str(tmp_path / "none")]) == 1
-    assert real_study_main(["--checkpoint", "no_equals_sign"]) == 1
+    assert real_study_main(["--checkpoint", "no_equals_sign"]) == 2
     assert real_study_main(["--table", "--out", str(tmp_path)]) == 1
     assert shipping_main(["nostudy", "c", "0", str(tmp_path / "x.pt")]) == 1
     assert shipping_main(["nostudy", "c", "zero", str(tmp_path / "x.pt")]) == 2

@@ -25,7 +25,10 @@ importable from here (``from e2vlib.experiments import STUDIES, run_study``):
 ``experiments.provenance``        where a record was made (:func:`git_commit`,
                                   :func:`cpu_name`, :func:`package_version`)
 ``experiments.runner``            one run (:func:`run_one`), a whole study (:func:`run_study`),
-                                  reused runs (:func:`find_same_run`), :func:`best_threshold`
+                                  reused runs (:func:`find_same_run`), :func:`best_threshold`,
+                                  and the one writer of results files: :func:`update_results`
+                                  (under a lock: read, merge, atomic rename), read back by
+                                  :func:`read_results` and checked by :func:`check_results`
 ``experiments.summary``           :func:`summarize`, :func:`format_study_table`,
                                   :func:`plot_summary`, :func:`is_real_difference` (the one
                                   rule for a real difference), :func:`compare`
@@ -73,10 +76,15 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "bench_section", "bench_table", "finding", "lesson_minutes", "load_results",
             "minutes_per_run", "recorded_on", "report", "runs_of",
         ],
-        "runner": ["best_threshold", "command_line", "find_same_run", "run_one", "run_study"],
+        "runner": [
+            "LOCK_TIMEOUT_S", "OBJECT_KEY", "RUN_KEY", "as_seed", "best_threshold",
+            "check_results", "command_line", "find_same_run", "merge_results", "read_results",
+            "results_lock", "run_one", "run_study", "update_results",
+        ],
         "studies": ["COLLAPSE_IOU", "QUICK", "STUDIES", "THRESHOLDS", "Study", "is_collapsed"],
         "summary": [
-            "compare", "format_study_table", "is_real_difference", "plot_summary", "summarize",
+            "compare", "format_study_table", "is_real_difference", "plot_summary", "run_key",
+            "summarize", "unique_runs",
         ],
     },
 )

@@ -343,7 +343,7 @@ def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.Argument
     parser.add_argument("--train-data", default="data_small",
                         help="dataset of the baselines' train and the threshold's val split")
     parser.add_argument("--checkpoint", action="append", metavar="NAME=PATH",
-                        help="a model to score (repeatable; default "
+                        type=_name_and_path, help="a model to score (repeatable; default "
                         "tiny=data_small/checkpoints/tiny.pt)")
     parser.add_argument("--out", default="experiments/results",
                         help="folder of real_meshes.json")
@@ -353,18 +353,21 @@ def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.Argument
     return parser
 
 
+def _name_and_path(item: str) -> tuple[str, str]:
+    """``--checkpoint NAME=PATH`` as ``(NAME, PATH)``."""
+    name, sep, path = item.partition("=")
+    if not sep or not name or not path:
+        raise argparse.ArgumentTypeError(f"must look like NAME=PATH, got {item!r}")
+    return name, path
+
+
 def run_command(args: argparse.Namespace) -> int:
     """Run a parsed ``real_study`` command line: print the table (``--table``), or score and
     then print it."""
     if args.table:
         print(format_real_table(Path(args.out) / "real_meshes.json"))
         return 0
-    checkpoints = {}
-    for item in args.checkpoint or [f"{k}={v}" for k, v in DEFAULT_CHECKPOINTS.items()]:
-        name, sep, ckpt = item.partition("=")
-        if not sep or not name or not ckpt:
-            raise ValueError(f"--checkpoint must look like NAME=PATH, got {item!r}")
-        checkpoints[name] = ckpt
+    checkpoints = dict(args.checkpoint or DEFAULT_CHECKPOINTS.items())
     command = " ".join(["python -m e2vlib.experiments.real_study", *args.argv])
     path = run_real_study(args.out, args.data, args.train_data, checkpoints,
                           command=command)
