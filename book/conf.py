@@ -49,6 +49,9 @@ include_patterns = ["book/index.md", "book/_generated/*.md", "docs/*.md",
 exclude_patterns = ["build", ".venv", "**/.ipynb_checkpoints"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "html_image"]
 myst_heading_anchors = 3
+# Markdown that a lesson's code displays (display(Markdown(...))) is parsed as MyST, which has
+# tables, as JupyterLab renders them; CommonMark, the default, would show their pipes as text.
+nb_render_markdown_format = "myst"
 suppress_warnings = ["myst.header", "misc.highlighting_failure"]
 
 # Execution: every lesson runs in a fresh kernel from notebooks/; jupyter-cache keeps the outputs

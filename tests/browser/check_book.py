@@ -77,6 +77,11 @@ def lesson_pages() -> list[str]:
     return [f"notebooks/{p.stem}.html" for p in lessons]
 
 
+TABLE_AS_TEXT = re.compile(r"^\s*\|.*\|\s*\|?\s*-{3,}")
+"""A Markdown table left as text: its header and ``| --- |`` rule run into one paragraph line
+(a rendered table's text has no pipes)."""
+
+
 def check_page(page, base: str, path: str, checks: Checks, lesson: bool) -> None:
     errors: list[str] = []
     outside: list[str] = []
@@ -95,6 +100,9 @@ def check_page(page, base: str, path: str, checks: Checks, lesson: bool) -> None
     checks.check(not outside, f"{path}: loads nothing from outside the site {outside[:3]}")
     text = page.inner_text("article") if page.query_selector("article") else page.inner_text("body")
     checks.check("Traceback" not in text, f"{path}: no 'Traceback' on the page")
+    raw_tables = [line[:60] for line in text.splitlines() if TABLE_AS_TEXT.match(line)]
+    checks.check(not raw_tables, f"{path}: every Markdown table renders as a table, not as "
+                                 f"text {raw_tables[:2]}")
     error_outputs = page.query_selector_all("div.output.traceback, div.output.error")
     checks.check(not error_outputs, f"{path}: no error output ({len(error_outputs)})")
     page.evaluate("() => document.querySelectorAll('details').forEach(d => d.open = true)")
@@ -181,7 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     checks = Checks()
     lessons = lesson_pages()
     pages = ["book/index.html", "book/_generated/readme.html", "book/_generated/map.html",
-             "book/_generated/paper.html"] + lessons
+             "book/_generated/paper.html", "docs/instructors.html", "docs/setup.html",
+             "docs/developer.html"] + lessons
     try:
         with sync_playwright() as playwright:
             browser = playwright.chromium.launch(executable_path=args.chromium, headless=True,
