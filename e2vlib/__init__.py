@@ -24,13 +24,13 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 21,498 lines)::
+Module map (``python tools/module_map.py --write``; 21,550 lines)::
 
-    lines per band: core 14,403 · speed and scale 1,197 · lab 4,558 · command line 1,340
+    lines per band: core 14,425 · speed and scale 1,197 · lab 4,587 · command line 1,341
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
-    data/                 2029  Datasets
-      build.py             240  Building a dataset
+    data/                 2043  Datasets
+      build.py             253  Building a dataset
       checks.py            280  A dataset folder is untrusted input
       commands.py           84  The python -m e2vlib make-data command lines that build (or ...
       config.py            271  Build settings
@@ -47,10 +47,10 @@ Module map (``python tools/module_map.py --write``; 21,498 lines)::
     inputs/                493  Model inputs
       representations.py   306  Model inputs from events
       tensors.py           148  A split held in memory
-    io.py                  601  Read and write event files, converting every foreign ...
+    io.py                  600  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1847  The E2V model
+    model/                1852  The E2V model
       checkpoint.py        373  E2V checkpoint files
       config.py            287  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
@@ -62,7 +62,7 @@ Module map (``python tools/module_map.py --write``; 21,498 lines)::
     orbit.py               444  The camera orbit's clock and geometry, numpy only
     paper.py               287  The paper's facts as named constants, and our documented ...
     render.py              260  Render the paper's spiral camera orbit around an object into ...
-    shapes/               3026  Objects to reconstruct
+    shapes/               3028  Objects to reconstruct
       builders.py          128  The category -> builder table, make_shape (the procedural ...
       cabinets.py          324  Procedural cabinets in five sub-types (CABINET_KINDS), the ...
       devices.py           165  Procedural category builder: the rifle
@@ -90,14 +90,14 @@ Module map (``python tools/module_map.py --write``; 21,498 lines)::
       scenes.py            338  PyVista scenes of voxels and meshes
       style.py              24  The lessons' colours and default views
       widgets.py           192  Widgets around a matplotlib picture that still shows where ...
-    voxels.py              470  Occupancy grids
+    voxels.py              472  Occupancy grids
     scale/                1197  Speed and scale
       frames_numba.py      358  Frames from events with compiled (numba) kernels
       options.py             7  The choices of fit_at_scale's options, importable without ...
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          401  Training at scale
-    experiments/          4558  The lab
+    experiments/          4587  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
@@ -105,24 +105,24 @@ Module map (``python tools/module_map.py --write``; 21,498 lines)::
       loader.py            182  A study protocol's splits as model inputs, kept in memory ...
       protocol.py          256  A study's protocol
       provenance.py         58  Where a record was made
-      real_meshes/        1405  Real third-party meshes of the paper's categories, from ...
+      real_meshes/        1409  Real third-party meshes of the paper's categories, from ...
         ac3d.py            176  A small reader of AC3D (.ac) models, the format of Debian's ...
         build.py           243  Building the real-mesh test set
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
         mapping.py         240  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_study.py        395  Scoring on real meshes
-      reconstruct.py       273  Reconstruct one object with a trained checkpoint, from a ...
+      real_study.py        408  Scoring on real meshes
+      reconstruct.py       274  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           246  Recorded results, read the same way by every lesson
-      runner.py            504  Running studies
+      runner.py            507  Running studies
       shipping.py           96  Ship one recorded run's model
       studies.py           170  The studies
       summary.py           165  A study's results as numbers
     __main__.py             77  Command line
-    cli/                  1263  The command line's parts: python -m e2vlib (__main__) runs them
+    cli/                  1264  The command line's parts: python -m e2vlib (__main__) runs them
       checks.py            365  Checks of command-line values before any work starts
       data_commands.py     164  The dataset commands
-      errors.py            124  How the command line fails
+      errors.py            125  How the command line fails
       model_commands.py    268  The model commands
       parser.py            213  The command line's parser
       study_commands.py     88  The study command

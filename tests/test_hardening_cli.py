@@ -194,3 +194,23 @@ def test_verify_data_on_a_broken_manifest_is_one_line(dataset, capsys, tmp_path)
     (copy / "manifest.csv").write_bytes(b"\x89PNG\r\n\x1a\n")
     code, _, err = run(capsys, "verify-data", "--data", copy)
     assert code == 1 and "manifest.csv is not a text manifest" in err
+
+
+def test_a_workers_refusal_prints_as_one_plain_line_and_a_bug_stays_unexpected():
+    import pickle
+
+    from e2vlib.cli.errors import one_line
+    from e2vlib.data.build import JobError, run_jobs
+
+    with pytest.raises(JobError) as refused:
+        run_jobs(int, ["1", "x"], 1, "parsing", "number", False, names=["one", "ex"])
+    back = pickle.loads(pickle.dumps(refused.value))  # as it returns from a worker process
+    assert back.expected and one_line(back) == (
+        "ex failed: ValueError: invalid literal for int() with base 10: 'x'")
+
+    def bug(_):
+        raise KeyError("optimizer")
+
+    with pytest.raises(JobError) as crashed:
+        run_jobs(bug, ["a"], 1, "running", "job", False)
+    assert not crashed.value.expected and "(unexpected;" in one_line(crashed.value)

@@ -563,3 +563,24 @@ def test_a_crrcsim_file_over_its_bound_or_not_a_file_is_refused(tmp_path, monkey
     with pytest.raises(RealMeshError, match=f"plane.ac is {len(AC3D_BYTES)} bytes, more "
                        "than MAX_MODEL_BYTES .100."):
         load_entry_mesh(crrcsim_entry("plane.ac", tmp_path))
+
+
+def test_real_study_writes_through_the_locked_writer_and_keeps_another_writers_scores(tmp_path):
+    """Two real-mesh scorings into one file (say, two checkpoints scored at once): each
+    write merges what the other wrote meanwhile, and a rescored object keeps only its new
+    scores."""
+    import json
+
+    from e2vlib.experiments.real_study import _write_results
+
+    path = tmp_path / "real_meshes.json"
+    base = {"study": "real_meshes", "protocol": {"p": 1}, "checkpoints": {}, "runs": []}
+    other = {"id": "a", "category": "chair", "scores": {"tiny": {"iou@0.3": 0.5}}}
+    path.write_text(json.dumps({**base, "runs": [other, {"id": "b", "category": "lamp",
+                                                         "scores": {"tiny": {"iou@0.3": 0.2}}}]}))
+    ours = {"a": {"id": "a", "category": "chair", "scores": {"best": {"iou@0.3": 0.7}}},
+            "b": {"id": "b", "category": "lamp", "scores": {"best": {"iou@0.3": 0.4}}}}
+    _write_results(path, dict(base), ours, ["a", "b"], rescored={"b"})
+    written = {r["id"]: r["scores"] for r in json.loads(path.read_text())["runs"]}
+    assert written["a"] == {"tiny": {"iou@0.3": 0.5}, "best": {"iou@0.3": 0.7}}  # both kept
+    assert written["b"] == {"best": {"iou@0.3": 0.4}}  # its old sample's score is gone

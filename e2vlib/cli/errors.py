@@ -66,7 +66,8 @@ def one_line(err: BaseException) -> str:
     message = " ".join(str(err).split())
     if isinstance(err, KeyError) and len(err.args) == 1:
         message = repr(err.args[0])
-    if isinstance(err, (UsageError, CommandError, ValueError, OSError)) and message:
+    expected = isinstance(err, (UsageError, CommandError, ValueError, OSError))
+    if (expected or getattr(err, "expected", False)) and message:  # e.g. a worker's refusal
         if isinstance(err, PermissionError):
             message += "; choose a location you can write to, or fix its permissions"
         return message

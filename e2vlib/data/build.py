@@ -190,7 +190,19 @@ class _SpawnedWorkersBar(tqdm):
 
 
 class JobError(RuntimeError):
-    """One job of :func:`run_jobs` failed; the message names it and the original error."""
+    """One job of :func:`run_jobs` failed; the message names it and the original error.
+
+    ``expected`` says whether that error was a refusal of bad input (a ValueError or an
+    OSError, which the command line prints as one plain line) rather than a bug; it travels
+    in ``args``, so it survives the trip back from a worker process.
+    """
+
+    def __init__(self, message: str, expected: bool = False) -> None:
+        super().__init__(message, expected)
+        self.expected = expected
+
+    def __str__(self) -> str:
+        return self.args[0]
 
 
 def _named_job(work: Callable[[Any], Any], job: Any, name: str) -> Any:
@@ -198,7 +210,8 @@ def _named_job(work: Callable[[Any], Any], job: Any, name: str) -> Any:
     try:
         return work(job)
     except Exception as err:
-        raise JobError(f"{name} failed: {type(err).__name__}: {err}") from err
+        raise JobError(f"{name} failed: {type(err).__name__}: {err}",
+                       expected=isinstance(err, ValueError | OSError)) from err
 
 
 def run_jobs(work: Callable[[Any], Any], jobs: Sequence[Any], workers: int, desc: str,

@@ -46,18 +46,22 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "ac3d": ["ac3d_to_mesh"],
-        "build": ["BUILD_COMMAND", "build_real_dataset", "real_config", "real_sample_seed"],
+        "ac3d": ["MAX_AC3D_DEPTH", "ac3d_to_mesh"],
+        "build": [
+            "BUILD_COMMAND", "build_real_dataset", "real_config", "real_sample_seed", "row_source",
+        ],
         "catalogue": [
             "CATALOGUE_FILE", "CRRCSIM", "CRRCSIM_COPYRIGHT", "CRRCSIM_CREATOR", "CRRCSIM_DIR",
             "CRRCSIM_INSTALL_HINT", "FURNITURE_DIR", "INSTALL_HINT", "LIBRARY_CODES",
-            "LIBRARY_LICENCES", "LICENCES", "MAX_MODEL_BYTES", "CatalogueEntry", "crrcsim_entry",
-            "entry_licence", "installed_libraries", "licence_from_text", "parse_properties",
-            "read_all_catalogues", "read_catalogue", "RealMeshError",
+            "LIBRARY_LICENCES", "LICENCES", "MAX_CATALOGUE_BYTES", "MAX_LICENCE_BYTES",
+            "MAX_MODEL_BYTES", "MAX_MODEL_COORDINATE", "MIN_MODEL_EXTENT", "ZIP_METHODS",
+            "CatalogueEntry", "check_model_extent", "crrcsim_entry", "entry_licence",
+            "installed_libraries", "licence_from_text", "open_library", "parse_properties",
+            "read_all_catalogues", "read_catalogue", "read_member", "RealMeshError",
         ],
         "mapping": [
-            "MAPPING_CSV", "MAPPING_FIELDS", "check_mapping", "MappedEntry", "read_mapping",
-            "resolve",
+            "MAPPING_CSV", "MAPPING_FIELDS", "MAX_MAPPING_BYTES", "check_mapping", "MappedEntry",
+            "read_mapping", "resolve",
         ],
         "meshes": ["POSES", "SH3D_TO_ZUP", "entry_transform", "load_entry_mesh", "obj_to_mesh"],
     },
