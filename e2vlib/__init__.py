@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 21,550 lines)::
+Module map (``python tools/module_map.py --write``; 21,560 lines)::
 
-    lines per band: core 14,425 · speed and scale 1,197 · lab 4,587 · command line 1,341
+    lines per band: core 14,435 · speed and scale 1,197 · lab 4,587 · command line 1,341
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -47,7 +47,7 @@ Module map (``python tools/module_map.py --write``; 21,550 lines)::
     inputs/                493  Model inputs
       representations.py   306  Model inputs from events
       tensors.py           148  A split held in memory
-    io.py                  600  Read and write event files, converting every foreign ...
+    io.py                  610  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
     model/                1852  The E2V model

@@ -310,15 +310,25 @@ def _read_npz(path: Path) -> tuple[np.ndarray, tuple[int, int]]:
             columns = [data[k] for k in ("x", "y", "t", "p")]
             sensor_size = _sensor_size(path, "the array sensor_size", data["sensor_size"])
     except (zipfile.BadZipFile, EOFError, OSError) as err:
+        if not _starts_as_zip(path):
+            raise _not_npz(path) from err
         raise ValueError(f"{path}: corrupted or truncated .npz file ({err})") from err
     except ValueError as err:
         if str(err).startswith(f"{path}"):
             raise
-        # np.load calls anything that is not a zip "pickled data"; it is never unpickled
-        raise ValueError(f"{path}: not an .npz event file (neither a zip of x, y, t, p, "
-                         "sensor_size arrays nor anything e2vlib reads; it was not unpickled): "
-                         "write it again with e2vlib.io.save_events") from err
+        raise _not_npz(path) from err  # np.load calls a non-zip "pickled"; never unpickled
     return make_events(*columns), sensor_size
+
+
+def _starts_as_zip(path: Path) -> bool:
+    with open(path, "rb") as f:
+        return f.read(2) == b"PK"
+
+
+def _not_npz(path: Path) -> ValueError:
+    return ValueError(f"{path}: not an .npz event file (neither a zip of x, y, t, p, "
+                      "sensor_size arrays nor anything e2vlib reads; it was not unpickled): "
+                      "write it again with e2vlib.io.save_events")
 
 
 # --- rpg / ESIM text ---------------------------------------------------------------------

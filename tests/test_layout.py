@@ -120,15 +120,6 @@ def test_every_name_a_package_face_lists_resolves(face):
     assert missing == [], f"{face} lists names its modules do not define: {missing}"
 
 
-MAX_LINES = 600
-
-
-def test_no_module_exceeds_600_lines():
-    long = {str(p.relative_to(PACKAGE)): n for p in PACKAGE.rglob("*.py")
-            if (n := len(p.read_text().splitlines())) > MAX_LINES}
-    assert long == {}, f"split these modules by job (at most {MAX_LINES} lines): {long}"
-
-
 def test_the_module_map_in_the_package_docstring_and_the_developer_guide_is_current():
     sys.path.insert(0, str(PACKAGE.parent / "tools"))
     try:
