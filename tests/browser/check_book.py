@@ -77,9 +77,10 @@ def lesson_pages() -> list[str]:
     return [f"notebooks/{p.stem}.html" for p in lessons]
 
 
-TABLE_AS_TEXT = re.compile(r"^\s*\|.*\|\s*\|?\s*-{3,}")
-"""A Markdown table left as text: its header and ``| --- |`` rule run into one paragraph line
-(a rendered table's text has no pipes)."""
+TABLE_AS_TEXT = re.compile(r"^\s*\|.*\w.*\|\s+\|\s*:?-{3,}")
+"""A Markdown table left as text in a paragraph: its header and ``| --- |`` rule run into one
+line (a rendered table's text has no pipes; a table printed by code stays a preformatted
+block of separate lines, as in JupyterLab, and is not matched)."""
 
 
 def check_page(page, base: str, path: str, checks: Checks, lesson: bool) -> None:
