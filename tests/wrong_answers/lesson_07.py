@@ -3,24 +3,24 @@
 WRONG = {
     # the threshold taken as exclusive (p > t): the voxels exactly at 0.3 are dropped
     1: "answer_1 = {0.3: (4, 4, 4), 0.5: (4, 4, 4)}\n",
-    # IoU as overlap over one box's size (7 / 8) instead of over the union
-    2: 'answer_2 = {"iou": 7 / 8, "surface_f": 196 / 296}\n',
-    # reading (a) computed at the literal 20 % of the cube instead of 0.2 voxel
-    3: """answer_3 = {n: metrics.fscores(probs, labels, T, (D1, D20), n_points=n)
-            for n in (512, 8192)}
-""",
     # the per-category thresholds chosen on the test split
-    4: """test_cats_4 = np.array(test_set.categories)
+    2: """test_cats_2 = np.array(test_set.categories)
 test_iou = np.stack([metrics.iou(probs, labels, th) for th in thresholds])
-best_by_cat = {c: float(thresholds[np.argmax(test_iou[:, test_cats_4 == c].mean(1))]) for c in cats}
+best_by_cat = {c: float(thresholds[np.argmax(test_iou[:, test_cats_2 == c].mean(1))]) for c in cats}
 row_of = [list(thresholds).index(best_by_cat[c]) for c in test_set.categories]
-answer_4 = {"per_category": best_by_cat,
+answer_2 = {"per_category": best_by_cat,
             "test_single": float(test_iou[list(thresholds).index(best_t)].mean()),
             "test_per_category": float(test_iou[row_of, np.arange(len(test_set))].mean())}
 """,
     # the smallest labels first instead of the largest
-    5: """size = metrics.category_means(labels.flatten(1).sum(1).numpy(), test_cats)
-answer_5 = {"largest": sorted(size, key=size.get)[:3],
+    3: """size = metrics.category_means(labels.flatten(1).sum(1).numpy(), test_cats)
+answer_3 = {"largest": sorted(size, key=size.get)[:3],
             "pooled_minus_mean": float(pooled - per_object.mean())}
+""",
+    # IoU as overlap over one box's size (7 / 8) instead of over the union
+    4: 'answer_4 = {"iou": 7 / 8, "surface_f": 196 / 296}\n',
+    # reading (a) computed at the literal 20 % of the cube instead of 0.2 voxel
+    5: """answer_5 = {n: metrics.fscores(probs, labels, T, (D1, D20), n_points=n)
+            for n in (512, 8192)}
 """,
 }
