@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 21,560 lines)::
+Module map (``python tools/module_map.py --write``; 21,556 lines)::
 
-    lines per band: core 14,435 · speed and scale 1,197 · lab 4,587 · command line 1,341
+    lines per band: core 14,436 · speed and scale 1,197 · lab 4,587 · command line 1,336
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -41,7 +41,7 @@ Module map (``python tools/module_map.py --write``; 21,560 lines)::
       samples.py           213  One sample
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     events.py              325  Event streams as numpy structured arrays, and their validation
-    files.py               166  Crash-safe file writing
+    files.py               167  Crash-safe file writing
     frames.py              383  Event representations
     geometry.py            393  Geometry baselines without learning
     inputs/                493  Model inputs
@@ -119,8 +119,8 @@ Module map (``python tools/module_map.py --write``; 21,560 lines)::
       studies.py           170  The studies
       summary.py           165  A study's results as numbers
     __main__.py             77  Command line
-    cli/                  1264  The command line's parts: python -m e2vlib (__main__) runs them
-      checks.py            365  Checks of command-line values before any work starts
+    cli/                  1259  The command line's parts: python -m e2vlib (__main__) runs them
+      checks.py            360  Checks of command-line values before any work starts
       data_commands.py     164  The dataset commands
       errors.py            125  How the command line fails
       model_commands.py    268  The model commands

@@ -71,8 +71,9 @@ def stale_temp_files(path: str | os.PathLike) -> list[Path]:
     return sorted(stale)
 
 
-def _kind_of(mode: int) -> str:
-    """What a non-regular file is, in words."""
+def kind_of_file(mode: int) -> str:
+    """What a non-regular file is, in words, from its ``st_mode``: ``"a FIFO (named pipe)"``,
+    ``"a character device"``, ``"a block device"``, ``"a socket"``."""
     for test, words in ((stat.S_ISFIFO, "a FIFO (named pipe)"),
                         (stat.S_ISCHR, "a character device"),
                         (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
@@ -117,7 +118,7 @@ def input_file(path: str | os.PathLike, what: str) -> Path:
         raise IsADirectoryError(f"{what} {path} is a directory, not a file; give a file "
                                 "inside it")
     if not stat.S_ISREG(mode):
-        raise ValueError(f"{what} {path} is {_kind_of(mode)}, not a regular file; give a file")
+        raise ValueError(f"{what} {path} is {kind_of_file(mode)}, not a regular file; give a file")
     return path
 
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import stat
 from pathlib import Path
 
 from e2vlib.cli.errors import CommandError, UsageError
+from e2vlib.files import kind_of_file
 
 DEVICES = "auto, cpu, cuda, cuda:N (the N-th GPU), mps"
 """What ``--device`` accepts, for messages."""
@@ -179,10 +179,6 @@ def _can_create_in(folder: Path) -> bool:
         return False
 
 
-_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
-
-
 def output_file(text: str, flag: str, example: str) -> Path:
     """Check an output file path (not a folder, in a writable folder) before the work.
 
@@ -206,8 +202,7 @@ def output_file(text: str, flag: str, example: str) -> Path:
         raise UsageError(f"{flag} {text!r} ends with a folder separator; give a file name, "
                          f"e.g. {path / example}")
     if path.exists() and not path.is_file():
-        mode = path.stat().st_mode
-        kind = next((words for test, words in _KINDS if test(mode)), "not a file")
+        kind = kind_of_file(path.stat().st_mode)
         raise UsageError(f"{flag} {path} exists and is {kind}, not a regular file; choose "
                          f"another {flag} (such a path is never replaced, --overwrite or not)")
     writable_folder(path.parent, flag, path)
