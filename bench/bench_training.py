@@ -4,7 +4,7 @@
 2. Forward time and peak memory of the ``paper`` preset at its full input 100 x 256 x 256,
    batch 1, in a child process (peak RSS measured there); skipped with a message when the
    machine has less than 16 GiB of memory.
-3. The committed checkpoint ``data_small/checkpoints/tiny.pt``: its training time and
+3. The committed checkpoint ``data_small/checkpoints/first_recipe.pt``: its training time and
    test results against the mean-shape baselines and the paper's 0.346.
 Run: ``python bench/bench_training.py``; writes the "Training" section.
 """
@@ -30,7 +30,7 @@ from e2vlib.train import evaluate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data_small"
-CHECKPOINT = DATA / "checkpoints" / "tiny.pt"
+CHECKPOINT = DATA / "checkpoints" / "first_recipe.pt"
 PAPER_IOU = 0.346
 
 PAPER_CHILD = """
@@ -154,7 +154,7 @@ def main() -> str:
         ours = result["overall"]["iou@0.3"]
         mean = result["baseline_mean_shape"]["iou@0.3"]
         oracle = result["baseline_category_mean"]["iou@0.3"]
-        lines += ["", f"**Target** (committed `data_small/checkpoints/tiny.pt`, recipe "
+        lines += ["", f"**Target** (committed `data_small/checkpoints/first_recipe.pt`, recipe "
                   f"{json.dumps(ckpt.get('recipe', {}))}): {len(history)} epochs in "
                   f"{minutes:.1f} min of training (sum of the epoch wall times recorded in its "
                   f"history, validation included; that run shared the cores with other jobs, "

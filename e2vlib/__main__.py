@@ -29,7 +29,7 @@ def _figures(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     from e2vlib.experiments.figures import render_readme_figures
 
-    checkpoint = args.checkpoint or str(Path(args.data) / "checkpoints" / "tiny.pt")
+    checkpoint = args.checkpoint or str(Path(args.data) / "checkpoints" / "e2v_tiny.pt")
     try:
         paths = render_readme_figures(args.out, args.data, checkpoint,
                                       categories=tuple(args.categories.split(",")))

@@ -25,7 +25,7 @@ from e2vlib.model import (
 )
 
 REPO = Path(__file__).resolve().parents[1]
-SHIPPED = REPO / "data_small" / "checkpoints" / "tiny.pt"
+SHIPPED = REPO / "data_small" / "checkpoints" / "first_recipe.pt"
 SMALL = (16, 32, 32)
 DATA_CONFIG = {"categories": ["chair"], "per_category": 2, "resolution": 64, "frame_size": 32,
                "n_frames": 16, "dt_us": 5000, "windows": "fixed"}
@@ -180,7 +180,7 @@ def test_non_finite_weights_name_the_file_and_the_first_bad_parameter(tmp_path, 
 
 
 def legacy_checkpoint(path: Path) -> Path:
-    """A checkpoint in the format the first shipped ``tiny.pt`` had (commit 78c2ea6).
+    """A checkpoint in the format the first shipped ``tiny.pt`` (now ``first_recipe.pt``) had (commit 78c2ea6).
 
     Written before digests, a top-level data config and the config fields ``in_channels``,
     ``gru_hidden`` and ``gru_pool`` existed: float16 weights, the data config under
@@ -321,7 +321,7 @@ def test_slim_checkpoint_keeps_the_training_loss(tmp_path):
 
 @pytest.mark.slow  # end to end, seconds: runs in make test-all
 def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
-    """best.pt scores, on data_small's test split, exactly the test IoU@0.3 its capstone
+    """e2v_tiny.pt scores, on data_small's test split, exactly the test IoU@0.3 its capstone
     record holds, with the record's threshold, data settings and provenance."""
     import json
 
@@ -330,7 +330,7 @@ def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
     from e2vlib.metrics import score_split
     from e2vlib.train import predict
 
-    best = REPO / "data_small" / "checkpoints" / "best.pt"
+    best = REPO / "data_small" / "checkpoints" / "e2v_tiny.pt"
     state = read_checkpoint(best)
     origin = state["provenance"]
     results = json.loads((REPO / "experiments" / "results" / f"{origin['study']}.json")

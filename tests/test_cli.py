@@ -369,7 +369,7 @@ def test_resume_from_a_slim_checkpoint_says_it_holds_weights_only(trained, capsy
     _, data, _ = trained
     run_dir = tmp_path / "run"
     run_dir.mkdir()
-    shutil.copy(REPO / "data_small" / "checkpoints" / "tiny.pt", run_dir / "last.pt")
+    shutil.copy(REPO / "data_small" / "checkpoints" / "first_recipe.pt", run_dir / "last.pt")
     code, _, err = run(capsys, "train", "--data", data, "--out", run_dir, "--resume",
                        "--device", "cpu")
     assert code == 1

@@ -17,7 +17,7 @@ def test_readme_figures_need_a_checkpoint(tmp_path):
 
 
 def test_readme_figures_name_missing_categories_before_writing(tmp_path):
-    checkpoint = REPO / "data_small" / "checkpoints" / "tiny.pt"
+    checkpoint = REPO / "data_small" / "checkpoints" / "first_recipe.pt"
     if not checkpoint.is_file():
         pytest.skip("no trained checkpoint in data_small/checkpoints")
     with pytest.raises(ValueError, match=r"no test samples of \['unicorn'\]"):
@@ -36,7 +36,7 @@ def test_readme_categories_all_have_test_samples_in_data_small():
 def test_readme_figures_render_small_pictures(tmp_path):
     from PIL import Image
 
-    checkpoint = REPO / "data_small" / "checkpoints" / "tiny.pt"
+    checkpoint = REPO / "data_small" / "checkpoints" / "first_recipe.pt"
     if not checkpoint.is_file():
         pytest.skip("no trained checkpoint in data_small/checkpoints")
     paths = render_readme_figures(tmp_path, REPO / "data_small", checkpoint,

@@ -18,7 +18,7 @@ def tiny_data(tmp_path_factory):
                          frame_size=16, oversample=2, raw_events_per_category=10)
     build_dataset(root, config, progress=False)
     model = build_e2v("tiny", seed=0, input_shape=(100, 16, 16))
-    save_checkpoint(root / "checkpoints" / "tiny.pt", model)
+    save_checkpoint(root / "checkpoints" / "first_recipe.pt", model)
     return root
 
 
@@ -70,7 +70,7 @@ def test_added_checkpoints_score_like_learned_and_keep_the_carving(tiny_data, tm
     runs = json.loads(path.read_text())["runs"]
     hull_before = {r["id"]: r["scores"]["visual_hull"] for r in runs}
     same = tmp_path / "same.pt"
-    shutil.copyfile(tiny_data / "checkpoints" / "tiny.pt", same)
+    shutil.copyfile(tiny_data / "checkpoints" / "first_recipe.pt", same)
     add_checkpoints(path, {"again": str(same)}, data=tiny_data, n_points=256)
     results = json.loads(path.read_text())
     oracle = category_mean_shapes(preload(E2VDataset(tiny_data, "train"), progress=False))

@@ -26,7 +26,7 @@ from e2vlib.train import predict
 from .conftest import REPO
 
 SMALL = REPO / "data_small"
-TINY = SMALL / "checkpoints" / "tiny.pt"
+TINY = SMALL / "checkpoints" / "first_recipe.pt"
 
 
 def _test_sample(sample_id: str) -> dict:

@@ -49,7 +49,7 @@ holds preset tiny (different encoder); ...
     if missing:
         raise CommandError(
             f"cannot resume from {last}: it holds the weights only (no {', '.join(missing)}; "
-            "a slimmed checkpoint such as data_small/checkpoints/tiny.pt). Start a new run "
+            "a slimmed checkpoint such as data_small/checkpoints/first_recipe.pt). Start a new run "
             f"from its weights with --init {last} and another --out, or train from scratch "
             "without --resume")
     if preset is None:

@@ -140,7 +140,7 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
     p.add_argument("--resume", action="store_true", help="continue from OUT/last.pt")
     p.add_argument("--init", metavar="CHECKPOINT",
                    help="start a new run from this checkpoint's model and weights (e.g. the "
-                   "slim data_small/checkpoints/tiny.pt), with a fresh optimizer")
+                   "slim data_small/checkpoints/first_recipe.pt), with a fresh optimizer")
     p.add_argument("--device", default="auto", help=f"one of {DEVICES} (default auto)")
     p.add_argument("--seed", type=count, default=0, help="seed for weights and shuffling")
     p.add_argument("--loss", default="bce", choices=tuple(LOSSES),
@@ -181,7 +181,7 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
                        "event frames, ground truth beside reconstruction)")
     p.add_argument("--out", default="docs/figures", help="output folder (docs/figures)")
     p.add_argument("--data", default="data_small", help="dataset with raw events (data_small)")
-    p.add_argument("--checkpoint", help="trained model (default DATA/checkpoints/tiny.pt)")
+    p.add_argument("--checkpoint", help="trained model (default DATA/checkpoints/e2v_tiny.pt)")
     p.add_argument("--categories", default="airplane,car,chair,lamp,table",
                    help="columns of the reconstruction picture (comma-separated)")
     p.set_defaults(func=figures)
@@ -205,7 +205,7 @@ def build_parser(figures: Callable[[argparse.Namespace], int]) -> argparse.Argum
                         "study in --out already recorded (default: copy that record)")
     p.add_argument("--checkpoint", action="append", metavar="NAME=PATH",
                    help="geometry only: one more learned model to score on the recorded "
-                        "objects (repeatable), beside tiny.pt")
+                        "objects (repeatable), beside first_recipe.pt")
     p.add_argument("--keep-checkpoints", metavar="DIR",
                    help="keep each trained run's best checkpoint as DIR/STUDY/CONFIG_seedN.pt "
                         "(default: thrown away)")

@@ -35,6 +35,10 @@ importable from here (``from e2vlib.experiments import STUDIES, run_study``):
 ``experiments.reports``           recorded results read as the lessons read them: studies
                                   (:func:`load_results`, :func:`report`, :func:`finding`)
                                   and bench figures (:func:`bench_table`, ...)
+``experiments.classroom``         the small study a student runs in lessons 09-13: a mini
+                                  dataset (:func:`build_mini_dataset`), two configs x three
+                                  seeds (:func:`run_class_study`), one figure beside the
+                                  record (:func:`plot_class_study`)
 ================================  ===========================================================
 
 Imported by their module names (they run as commands, or load much):
@@ -47,7 +51,7 @@ Imported by their module names (they run as commands, or load much):
 ``experiments.real_meshes``       the real meshes: catalogue, reviewed mapping, AC3D reader,
                                   the real-mesh test set
 ``experiments.shipping``          one kept run's model made into a checkpoint for students
-                                  (``data_small/checkpoints/best.pt``)
+                                  (``data_small/checkpoints/e2v_tiny.pt``)
 ``experiments.reconstruct``       one object reconstructed by a checkpoint, from a mesh or an
                                   event file (``python -m e2vlib reconstruct``)
 ``experiments.explore``           a dataset explorer for lesson 08
@@ -63,6 +67,11 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
+        "classroom": [
+            "CLASS_CATEGORIES", "CLASS_EPOCHS", "CLASS_FRAME_SIZE", "CLASS_PER_CATEGORY",
+            "CLASS_SEEDS", "build_mini_dataset", "class_overrides", "plot_class_study",
+            "run_class_study",
+        ],
         "caches": [
             "BUILD_WORKERS", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE", "EVENTS_COMMAND",
             "EXTRA_CACHE", "EXTRA_COMMAND", "NOISE_CACHE", "NOISE_COMMANDS", "RENDER_CACHE",

@@ -7,9 +7,9 @@ For every test object of data_small (known camera poses, no training) it scores
 * ``events_carving``: events only, from the object's raw events in the events cache
   (:data:`e2vlib.experiments.EVENTS_CACHE`), with :func:`e2vlib.geometry.event_ray_density`
   and :func:`e2vlib.geometry.fill_solid`;
-* ``learned``: the shipped checkpoint ``data_small/checkpoints/tiny.pt`` on the stored frames;
+* ``learned``: the shipped checkpoint ``data_small/checkpoints/first_recipe.pt`` on the stored frames;
 * ``mean_shape``: the mean training label, the baseline of lessons 06-07;
-* more checkpoints by name (``--checkpoint best=data_small/checkpoints/best.pt``), each also
+* more checkpoints by name (``--checkpoint best=data_small/checkpoints/e2v_tiny.pt``), each also
   at its validation-picked threshold, and ``category_oracle`` (the mean training label of the
   object's own category) with them: added to the recorded objects without carving again;
 
@@ -119,7 +119,7 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
         chosen = [i for c, idx in test.category_indices().items()
                   for i in idx[:limit_per_category]]
     protocol = {"data": str(data), "events": str(events),
-                "checkpoint": str(data / "checkpoints" / "tiny.pt"),
+                "checkpoint": str(data / "checkpoints" / "first_recipe.pt"),
                 "silhouettes": f"{paper.N_VIDEO_FRAMES} grey video frames at "
                                f"{config.resolution} px",
                 "events_method": "geometry.event_ray_density + fill_solid (defaults)",

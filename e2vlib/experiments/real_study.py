@@ -5,7 +5,7 @@ holds third-party furniture, vehicle and device models of the paper's categories
 samples by the data_small protocol. On every object this scores, with
 :func:`e2vlib.geometry.score_occupancy` (the learned model's metrics):
 
-* each checkpoint given (``NAME=PATH``; ``tiny`` = ``data_small/checkpoints/tiny.pt``) on the
+* each checkpoint given (``NAME=PATH``; ``tiny`` = ``data_small/checkpoints/first_recipe.pt``) on the
   stored frames, at IoU thresholds 0.2-0.5 and at the threshold picked on data_small's
   validation split (:func:`e2vlib.experiments.best_threshold`, unless the checkpoint
   records one as ``val_threshold``);
@@ -16,7 +16,7 @@ samples by the data_small protocol. On every object this scores, with
 
 One record per object is written to ``OUT/real_meshes.json`` atomically after each object;
 recorded methods are skipped, so an interrupted run resumes and a second checkpoint is added
-later by one more ``--checkpoint best=data_small/checkpoints/best.pt``. Per method and
+later by one more ``--checkpoint best=data_small/checkpoints/e2v_tiny.pt``. Per method and
 category the file also holds a summary: n, mean IoU@0.3 and its 95 % interval over objects
 (Student's t). Command: ``python -m e2vlib.experiments.real_study`` (``--help``).
 """
@@ -39,8 +39,8 @@ from e2vlib.experiments.runner import OBJECT_KEY, update_results
 
 BASELINES = ("visual_hull", "mean_shape", "category_oracle")
 """The methods scored beside the checkpoints, in table order."""
-DEFAULT_CHECKPOINTS = {"tiny": "data_small/checkpoints/tiny.pt"}
-COMMAND = "python -m e2vlib.experiments.real_study --checkpoint tiny=data_small/checkpoints/tiny.pt"
+DEFAULT_CHECKPOINTS = {"tiny": "data_small/checkpoints/first_recipe.pt"}
+COMMAND = "python -m e2vlib.experiments.real_study --checkpoint tiny=data_small/checkpoints/first_recipe.pt"
 """The recorded command (after the build in
 :data:`e2vlib.experiments.real_meshes.BUILD_COMMAND`)."""
 QUESTION = ("The learned models train on procedural stand-ins of the 13 categories. On real "
@@ -353,7 +353,7 @@ def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.Argument
                         help="dataset of the baselines' train and the threshold's val split")
     parser.add_argument("--checkpoint", action="append", metavar="NAME=PATH",
                         type=_name_and_path, help="a model to score (repeatable; default "
-                        "tiny=data_small/checkpoints/tiny.pt)")
+                        "tiny=data_small/checkpoints/first_recipe.pt)")
     parser.add_argument("--out", default="experiments/results",
                         help="folder of real_meshes.json")
     parser.add_argument("--table", action="store_true",

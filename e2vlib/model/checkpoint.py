@@ -15,7 +15,7 @@ longer match their digest (corrupted after writing) or hold NaN or inf
 (:func:`~e2vlib.model.integrity.verify_weights`; :class:`CheckpointError`,
 :data:`DIGEST_KEY` and :func:`weights_digest` live in :mod:`e2vlib.model.integrity` and are
 importable from here too). Checkpoints written before digests existed (such as the shipped
-``data_small/checkpoints/tiny.pt``) load without the digest check.
+``data_small/checkpoints/first_recipe.pt``) load without the digest check.
 :func:`check_frames_match` refuses data whose frames were made differently from those a
 checkpoint was trained on.
 
@@ -247,7 +247,7 @@ def slim_checkpoint(src: str | os.PathLike, dst: str | os.PathLike, half: bool =
 
     Keeps the config, the weights (as float16 when ``half``: ``load_checkpoint`` casts
     them back to float32) with a new digest, the data config and the ``keep`` entries.
-    The source is verified first. The committed ``data_small/checkpoints/tiny.pt`` was
+    The source is verified first. The committed ``data_small/checkpoints/first_recipe.pt`` was
     made this way (before digests existed).
 
     Examples
@@ -306,7 +306,7 @@ def _as_config_dict(config: Any, what: str) -> dict | None:
 def checkpoint_data_config(ckpt: Mapping[str, Any]) -> dict | None:
     """The dataset build settings a checkpoint was trained on, or None if it has none.
 
-    Reads ``ckpt["data_config"]``, or for older checkpoints (the shipped ``tiny.pt``)
+    Reads ``ckpt["data_config"]``, or for older checkpoints (the shipped ``first_recipe.pt``)
     ``ckpt["metadata"]["data_config"]``.
 
     Examples

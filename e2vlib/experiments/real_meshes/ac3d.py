@@ -6,6 +6,7 @@ Scored by :mod:`e2vlib.experiments.real_study` (experiments/results/real_meshes.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 
 import numpy as np
 import trimesh
@@ -17,7 +18,8 @@ MAX_AC3D_DEPTH = 64
 crrcsim-data aircraft nest a few levels)."""
 
 
-def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
+def ac3d_to_mesh(text: str, where: str = "AC3D", drop: Callable[[str], bool] | None = None,
+                 dropped: list[str] | None = None) -> trimesh.Trimesh:
     """The polygons of AC3D text (``AC3Db`` files) as one ``trimesh.Trimesh``, as stored.
 
     Objects nest (``kids``); each object's vertices are moved by its ``loc`` and those of
@@ -28,6 +30,13 @@ def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
     parse: a count (``numvert``, ``numsurf``, ``refs``, ``kids``) that is not a whole number
     or more than the lines left can hold, objects nested deeper than
     :data:`MAX_AC3D_DEPTH`, or no polygon (:func:`check_model_extent` for the vertices).
+
+    ``drop``, when given, is asked about each object's ``name`` (``""`` when it has none):
+    an object it answers True for is left out with all its kids, and its name is appended
+    to ``dropped`` (when a list is given). Debian's FlightGear and TORCS models name their
+    shadow squares, light cones and level-of-detail copies so
+    (:mod:`e2vlib.experiments.real_objects.readers`); TORCS's ``.acc`` files read as
+    ``.ac`` (their extra texture coordinates are ignored).
 
     Examples
     --------
@@ -40,6 +49,13 @@ def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
     >>> mesh = ac3d_to_mesh(text)
     >>> len(mesh.faces), mesh.bounds.tolist()
     (2, [[1.0, 0.0, 0.0], [2.0, 1.0, 0.0]])
+    >>> gone = []
+    >>> shadowless = ac3d_to_mesh(text.replace("OBJECT poly", 'OBJECT poly\\nname "shadow"')
+    ...                           + "\\nOBJECT poly\\nnumvert 3\\n0 0 0\\n1 0 0\\n0 0 1\\nnumsurf 1"
+    ...                           "\\nSURF 0\\nrefs 3\\n0 0 0\\n1 0 0\\n2 0 0\\nkids 0",
+    ...                           drop=lambda name: name == "shadow", dropped=gone)
+    >>> len(shadowless.faces), gone
+    (1, ['shadow'])
     >>> ac3d_to_mesh("OBJECT world", "plane.ac")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
@@ -53,7 +69,13 @@ def ac3d_to_mesh(text: str, where: str = "AC3D") -> trimesh.Trimesh:
         raise RealMeshError(f"{where}: no OBJECT in the file")
     vertices: list[np.ndarray] = []
     faces: list[list[int]] = []
-    _read_object(reader, np.eye(4), vertices, faces, depth=1)
+    _read_object(reader, np.eye(4), vertices, faces, depth=1, drop=drop, dropped=dropped)
+    while drop is not None:  # files whose world holds fewer kids than follow (TORCS's)
+        reader.skip_to_object()
+        if reader.pos == len(reader.lines):
+            break
+        reader.pos += 1
+        _read_object(reader, np.eye(4), vertices, faces, depth=1, drop=drop, dropped=dropped)
     if not faces:
         raise RealMeshError(f"{where}: the file holds no polygon surface")
     check_model_extent(np.concatenate(vertices), where)
@@ -107,18 +129,27 @@ class _Lines:
 
 
 def _read_object(reader: _Lines, parent: np.ndarray, vertices: list[np.ndarray],
-                 faces: list[list[int]], depth: int) -> None:
+                 faces: list[list[int]], depth: int,
+                 drop: Callable[[str], bool] | None = None,
+                 dropped: list[str] | None = None, skip: bool = False) -> None:
     """Read the object whose ``OBJECT`` line was just read, and its kids, into ``vertices``
-    (moved by ``parent`` and its own ``loc``/``rot``) and ``faces``."""
+    (moved by ``parent`` and its own ``loc``/``rot``) and ``faces``; an object that ``drop``
+    picks by name (or under one, ``skip``) is read past and left out."""
     if depth > MAX_AC3D_DEPTH:
         raise reader.fail(f"objects nest deeper than MAX_AC3D_DEPTH ({MAX_AC3D_DEPTH} "
                           "levels); the file is damaged")
-    local, own, kids = np.eye(4), None, 0
+    local, own, kids, own_faces = np.eye(4), None, 0, []
     offset = sum(map(len, vertices))
     while reader.pos < len(reader.lines):
         line = reader.next("a keyword")
         word = line.split(" ", 1)[0]
-        if word == "loc":
+        if word == "name" and drop is not None and not skip:
+            name = line[5:].strip().strip('"')
+            if drop(name):
+                skip = True
+                if dropped is not None:
+                    dropped.append(name)
+        elif word == "loc":
             local[:3, 3] = reader.numbers(line[4:], 3)
         elif word == "rot":
             local[:3, :3] = np.reshape(reader.numbers(line[4:], 9), (3, 3))
@@ -132,19 +163,20 @@ def _read_object(reader: _Lines, parent: np.ndarray, vertices: list[np.ndarray],
                            ).reshape(-1, 3)
         elif word == "numsurf":
             for _ in range(reader.count(line, 2)):
-                _read_surface(reader, faces, offset, 0 if own is None else len(own))
+                _read_surface(reader, own_faces, offset, 0 if own is None else len(own))
         elif word == "kids":
             kids = reader.count(line, 1)
             break
     transform = parent @ local
-    if own is not None and len(own):
+    if own is not None and len(own) and not skip:
         vertices.append(trimesh.transform_points(own, transform))
+        faces.extend(own_faces)
     for _ in range(kids):
         reader.skip_to_object()
         if reader.pos == len(reader.lines):
             raise reader.fail("fewer objects than its kids line says")
         reader.pos += 1
-        _read_object(reader, transform, vertices, faces, depth + 1)
+        _read_object(reader, transform, vertices, faces, depth + 1, drop, dropped, skip)
 
 
 def _read_surface(reader: _Lines, faces: list[list[int]], offset: int,

@@ -1,0 +1,26 @@
+"""Real objects of the paper's categories from Debian packages (issue #38): the catalogue.
+
+FlightGear's aircraft, boats, road vehicles and street lamps, TORCS's cars, UFO:AI's and
+OpenArena's guns, GL-117's aircraft, minetest's home decor and Sweet Home 3D's own
+furniture, downloaded and unpacked (never installed) under ``cache/real_objects``, looked
+at model by model, and listed with the 241 reviewed Sweet Home 3D / crrcsim models of
+:mod:`e2vlib.experiments.real_meshes` in one committed table,
+``experiments/real_objects/catalogue.csv`` (no geometry: source, path, licence, category,
+rotation, parts removed, keep, split, what looking showed). The modules, each with one job:
+
+==========================  ================================================================
+``real_objects.sources``    the packages (:data:`~sources.PACKAGES`), ``apt-get download``
+                            and ``dpkg-deb -x``, the candidate models (:data:`~sources.RULES`)
+``real_objects.readers``    AC3D/ACC, OBJ, MD2 (a numpy reader), 3DS/MD3 (assimp) into
+                            our frame (z up, front -y, centred, longest side 1)
+``real_objects.look``       surface grids, contact sheets, duplicates by geometry
+``real_objects.catalogue``  the committed table: :func:`~catalogue.read_catalogue`,
+                            :func:`~catalogue.check_catalogue`, the split
+``real_objects.build``      joins candidates, the review and the duplicates into the table
+``real_objects.__main__``   the recorded commands (download, extract, grids, sheets,
+                            catalogue)
+==========================  ================================================================
+
+Nothing derived from the GPL or CC-BY-SA models (grids, sheets, meshes) leaves ``cache/``.
+The core never imports this package.
+"""

@@ -1,0 +1,76 @@
+"""The class study of lessons 09-13: the mini dataset, its overrides, a run, the figure."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from e2vlib.data import E2VDataset  # noqa: E402
+from e2vlib.experiments import classroom, reports  # noqa: E402
+from e2vlib.experiments.summary import summarize  # noqa: E402
+
+
+def test_overrides_point_every_input_at_the_mini_set_with_the_class_budget():
+    quick = classroom.class_overrides("/x/data", quick=True)
+    assert quick == {"data": "/x/data", "events": "/x/data", "frame_size": 32, "epochs": 1,
+                     "per_category": None}
+    full = classroom.class_overrides("/x/data", quick=False, loss="bce_dice")
+    assert full["epochs"] == classroom.CLASS_EPOCHS["full"] and full["loss"] == "bce_dice"
+
+
+@pytest.fixture(scope="module")
+def class_run(tmp_path_factory):
+    root = tmp_path_factory.mktemp("class")
+    data = classroom.build_mini_dataset(root / "data", quick=True, progress=False)
+    rows = classroom.run_class_study("representation", ["binary", "count"], data,
+                                     root / "results", quick=True, seeds=(0, 1),
+                                     progress=False)
+    return root, data, rows
+
+
+def test_the_mini_set_has_three_categories_with_raw_events_of_every_object(class_run):
+    _, data, _ = class_run
+    ids = []
+    for split in ("train", "val", "test"):
+        dataset = E2VDataset(data, split)
+        ids += dataset.ids
+        assert all(dataset.raw_events_path(i) is not None for i in range(len(dataset)))
+    per_category = classroom.CLASS_PER_CATEGORY["quick"]
+    assert len(ids) == len(set(ids)) == per_category * len(classroom.CLASS_CATEGORIES)
+    assert {i.rsplit("_", 1)[0] for i in ids} == set(classroom.CLASS_CATEGORIES)
+
+
+def test_a_class_study_records_every_seed_and_returns_its_rows(class_run):
+    root, data, rows = class_run
+    assert [r["config"] for r in rows] == ["binary", "count"]
+    assert all(r["n"] == 2 and len(r["values"]) == 2 for r in rows)
+    recorded = reports.load_results("representation", root / "results")
+    assert recorded["protocol"]["data"] == str(data)
+    assert recorded["protocol"]["epochs"] == classroom.CLASS_EPOCHS["quick"]
+    assert sorted((r["config"], r["seed"]) for r in recorded["runs"]) == [
+        ("binary", 0), ("binary", 1), ("count", 0), ("count", 1)]
+    assert rows == [r for r in summarize(recorded) if r["config"] in ("binary", "count")]
+
+
+def test_the_figure_puts_the_class_study_beside_the_record_from_zero(class_run):
+    _, _, rows = class_run
+    recorded = [{"config": "count", "n": 3, "mean": 0.5, "ci95": (0.3, 0.7),
+                 "values": [0.4, 0.5, 0.6]},
+                {"config": "binary", "n": 3, "mean": 0.6, "ci95": (0.5, 0.9),
+                 "values": [0.55, 0.6, 0.65]},
+                {"config": "edges", "n": 3, "mean": 0.1, "ci95": (0.0, 0.2),
+                 "values": [0.1, 0.1, 0.1]}]
+    fig = classroom.plot_class_study(rows, recorded, question="which input?")
+    left, right = fig.axes
+    assert left.get_ylim()[0] == 0 and right.get_ylim()[0] == 0
+    assert right.get_ylim()[1] >= 0.9  # the widest interval is not cut
+    labels = [t.get_text() for t in right.get_xticklabels()]
+    assert labels == ["binary", "count"]  # the record's rows in the class study's order
+    heights = [p.get_height() for p in right.patches]
+    assert np.allclose(heights, [0.6, 0.5])
+    alone = classroom.plot_class_study(rows)
+    assert len(alone.axes) == 1
