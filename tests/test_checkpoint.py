@@ -180,7 +180,8 @@ def test_non_finite_weights_name_the_file_and_the_first_bad_parameter(tmp_path, 
 
 
 def legacy_checkpoint(path: Path) -> Path:
-    """A checkpoint in the format the first shipped ``tiny.pt`` (now ``first_recipe.pt``) had (commit 78c2ea6).
+    """A checkpoint in the format the first shipped ``tiny.pt`` (now ``first_recipe.pt``) had
+    (commit 78c2ea6).
 
     Written before digests, a top-level data config and the config fields ``in_channels``,
     ``gru_hidden`` and ``gru_pool`` existed: float16 weights, the data config under

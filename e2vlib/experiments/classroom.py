@@ -99,7 +99,7 @@ def plot_class_study(rows: list[dict], recorded: list[dict] | None = None,
     top = max(max(r["values"]) for group, _ in panels for r in group)
     top = max([top] + [r["ci95"][1] for group, _ in panels for r in group
                        if r["ci95"][1] == r["ci95"][1]])  # NaN (one seed) is skipped
-    for ax, (group, title) in zip(axes[0], panels):
+    for ax, (group, title) in zip(axes[0], panels, strict=True):
         plot_summary(group, ax=ax, metric=metric, title=title)
         ax.set_ylim(0, min(1.0, top + 0.12))  # from 0, so no interval is cut
     for ax in axes[0][1:]:

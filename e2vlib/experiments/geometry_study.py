@@ -7,7 +7,7 @@ For every test object of data_small (known camera poses, no training) it scores
 * ``events_carving``: events only, from the object's raw events in the events cache
   (:data:`e2vlib.experiments.EVENTS_CACHE`), with :func:`e2vlib.geometry.event_ray_density`
   and :func:`e2vlib.geometry.fill_solid`;
-* ``learned``: the shipped checkpoint ``data_small/checkpoints/first_recipe.pt`` on the stored frames;
+* ``learned``: the shipped ``data_small/checkpoints/first_recipe.pt`` on the stored frames;
 * ``mean_shape``: the mean training label, the baseline of lessons 06-07;
 * more checkpoints by name (``--checkpoint best=data_small/checkpoints/e2v_tiny.pt``), each also
   at its validation-picked threshold, and ``category_oracle`` (the mean training label of the

@@ -5,8 +5,9 @@ holds third-party furniture, vehicle and device models of the paper's categories
 samples by the data_small protocol. On every object this scores, with
 :func:`e2vlib.geometry.score_occupancy` (the learned model's metrics):
 
-* each checkpoint given (``NAME=PATH``; ``tiny`` = ``data_small/checkpoints/first_recipe.pt``) on the
-  stored frames, at IoU thresholds 0.2-0.5 and at the threshold picked on data_small's
+* each checkpoint given (``NAME=PATH``; ``tiny`` =
+  ``data_small/checkpoints/first_recipe.pt``) on the stored frames, at IoU thresholds 0.2-0.5
+  and at the threshold picked on data_small's
   validation split (:func:`e2vlib.experiments.best_threshold`, unless the checkpoint
   records one as ``val_threshold``);
 * ``visual_hull``: carved from the silhouettes of the object's 120 grey video frames with
@@ -40,7 +41,8 @@ from e2vlib.experiments.runner import OBJECT_KEY, update_results
 BASELINES = ("visual_hull", "mean_shape", "category_oracle")
 """The methods scored beside the checkpoints, in table order."""
 DEFAULT_CHECKPOINTS = {"tiny": "data_small/checkpoints/first_recipe.pt"}
-COMMAND = "python -m e2vlib.experiments.real_study --checkpoint tiny=data_small/checkpoints/first_recipe.pt"
+COMMAND = ("python -m e2vlib.experiments.real_study "
+           "--checkpoint tiny=data_small/checkpoints/first_recipe.pt")
 """The recorded command (after the build in
 :data:`e2vlib.experiments.real_meshes.BUILD_COMMAND`)."""
 QUESTION = ("The learned models train on procedural stand-ins of the 13 categories. On real "

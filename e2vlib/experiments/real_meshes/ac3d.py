@@ -19,13 +19,14 @@ crrcsim-data aircraft nest a few levels)."""
 
 
 def ac3d_to_mesh(text: str, where: str = "AC3D", drop: Callable[[str], bool] | None = None,
-                 dropped: list[str] | None = None) -> trimesh.Trimesh:
+                 dropped: list[str] | None = None, strict: bool = True) -> trimesh.Trimesh:
     """The polygons of AC3D text (``AC3Db`` files) as one ``trimesh.Trimesh``, as stored.
 
     Objects nest (``kids``); each object's vertices are moved by its ``loc`` and those of
     its parents (and turned by a ``rot`` matrix where one is given, applied to column
-    vectors). Polygon surfaces (``SURF`` type 0) are fanned into triangles; line surfaces
-    (types 1 and 2) have no area and are left out. Materials and textures are not read.
+    vectors). Polygon surfaces (``SURF`` type 0) are fanned into triangles and triangle
+    strips (type 4, TORCS's ``.acc``) unrolled; line surfaces (types 1 and 2) have no area
+    and are left out. Materials and textures are not read.
     Raises :class:`RealMeshError` naming ``where`` and the line for text that does not
     parse: a count (``numvert``, ``numsurf``, ``refs``, ``kids``) that is not a whole number
     or more than the lines left can hold, objects nested deeper than
@@ -36,7 +37,10 @@ def ac3d_to_mesh(text: str, where: str = "AC3D", drop: Callable[[str], bool] | N
     to ``dropped`` (when a list is given). Debian's FlightGear and TORCS models name their
     shadow squares, light cones and level-of-detail copies so
     (:mod:`e2vlib.experiments.real_objects.readers`); TORCS's ``.acc`` files read as
-    ``.ac`` (their extra texture coordinates are ignored).
+    ``.ac`` (their extra texture coordinates are ignored). With ``strict=False`` a file
+    that ends before the objects its ``kids`` lines promise, or holds more top-level
+    objects than its world's ``kids``, is read as far as it goes, and blank lines are
+    skipped (some FlightGear files).
 
     Examples
     --------
@@ -53,7 +57,8 @@ def ac3d_to_mesh(text: str, where: str = "AC3D", drop: Callable[[str], bool] | N
     >>> shadowless = ac3d_to_mesh(text.replace("OBJECT poly", 'OBJECT poly\\nname "shadow"')
     ...                           + "\\nOBJECT poly\\nnumvert 3\\n0 0 0\\n1 0 0\\n0 0 1\\nnumsurf 1"
     ...                           "\\nSURF 0\\nrefs 3\\n0 0 0\\n1 0 0\\n2 0 0\\nkids 0",
-    ...                           drop=lambda name: name == "shadow", dropped=gone)
+    ...                           drop=lambda name: name == "shadow", dropped=gone,
+    ...                           strict=False)
     >>> len(shadowless.faces), gone
     (1, ['shadow'])
     >>> ac3d_to_mesh("OBJECT world", "plane.ac")  # doctest: +ELLIPSIS
@@ -62,6 +67,8 @@ def ac3d_to_mesh(text: str, where: str = "AC3D", drop: Callable[[str], bool] | N
     e2vlib.experiments.real_meshes.catalogue.RealMeshError: plane.ac: not an AC3D file ...
     """
     reader = _Lines(text, where)
+    if not strict:  # blank lines inside a surface's refs (some FlightGear files)
+        reader.lines = [line for line in reader.lines if line.strip()]
     if not reader.lines or not reader.lines[0].startswith("AC3D"):
         raise RealMeshError(f"{where}: not an AC3D file (no AC3D header)")
     reader.skip_to_object()
@@ -69,13 +76,15 @@ def ac3d_to_mesh(text: str, where: str = "AC3D", drop: Callable[[str], bool] | N
         raise RealMeshError(f"{where}: no OBJECT in the file")
     vertices: list[np.ndarray] = []
     faces: list[list[int]] = []
-    _read_object(reader, np.eye(4), vertices, faces, depth=1, drop=drop, dropped=dropped)
-    while drop is not None:  # files whose world holds fewer kids than follow (TORCS's)
+    _read_object(reader, np.eye(4), vertices, faces, depth=1, drop=drop, dropped=dropped,
+                 strict=strict)
+    while not strict:  # files whose world holds fewer kids than follow (TORCS's)
         reader.skip_to_object()
         if reader.pos == len(reader.lines):
             break
         reader.pos += 1
-        _read_object(reader, np.eye(4), vertices, faces, depth=1, drop=drop, dropped=dropped)
+        _read_object(reader, np.eye(4), vertices, faces, depth=1, drop=drop, dropped=dropped,
+                     strict=strict)
     if not faces:
         raise RealMeshError(f"{where}: the file holds no polygon surface")
     check_model_extent(np.concatenate(vertices), where)
@@ -131,7 +140,8 @@ class _Lines:
 def _read_object(reader: _Lines, parent: np.ndarray, vertices: list[np.ndarray],
                  faces: list[list[int]], depth: int,
                  drop: Callable[[str], bool] | None = None,
-                 dropped: list[str] | None = None, skip: bool = False) -> None:
+                 dropped: list[str] | None = None, skip: bool = False,
+                 strict: bool = True) -> None:
     """Read the object whose ``OBJECT`` line was just read, and its kids, into ``vertices``
     (moved by ``parent`` and its own ``loc``/``rot``) and ``faces``; an object that ``drop``
     picks by name (or under one, ``skip``) is read past and left out."""
@@ -174,9 +184,12 @@ def _read_object(reader: _Lines, parent: np.ndarray, vertices: list[np.ndarray],
     for _ in range(kids):
         reader.skip_to_object()
         if reader.pos == len(reader.lines):
+            if not strict:
+                return
             raise reader.fail("fewer objects than its kids line says")
         reader.pos += 1
-        _read_object(reader, transform, vertices, faces, depth + 1, drop, dropped, skip)
+        _read_object(reader, transform, vertices, faces, depth + 1, drop, dropped, skip,
+                     strict)
 
 
 def _read_surface(reader: _Lines, faces: list[list[int]], offset: int,
@@ -206,3 +219,6 @@ def _read_surface(reader: _Lines, faces: list[list[int]], offset: int,
     if kind == 0:
         faces.extend([offset + refs[0], offset + refs[k], offset + refs[k + 1]]
                      for k in range(1, n - 1))
+    elif kind == 4:  # a triangle strip (TORCS's .acc files)
+        faces.extend([offset + refs[k + (k % 2)], offset + refs[k + 1 - (k % 2)],
+                      offset + refs[k + 2]] for k in range(n - 2))

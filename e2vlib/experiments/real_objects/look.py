@@ -90,8 +90,17 @@ def duplicates(grids: dict[str, np.ndarray], categories: dict[str, str],
 
 def views(occ: np.ndarray) -> list[np.ndarray]:
     """Three depth-shaded outline pictures (uint8, white background) of a ``[x, y, z]``
-    grid: from the front (-y, x to the right), from the right side (+x, front -y to the
-    right) and from above (front -y at the bottom); nearer surfaces are darker."""
+    grid: from the front (-y, x to the right), from the side (front -y to the left) and
+    from above (front -y at the top); nearer surfaces are darker, z is up in the first two.
+
+    Examples
+    --------
+    >>> occ = np.zeros((4, 4, 4), bool)
+    >>> occ[2, 0, 2] = True  # a cell at the front (-y)
+    >>> front, side, top = views(occ)
+    >>> [np.argwhere(v < 255).tolist() for v in (side, top)]  # [row, column]
+    [[[1, 0]], [[0, 2]]]
+    """
     n = occ.shape[0]
     ramp = np.linspace(40, 200, n)
 
@@ -101,7 +110,7 @@ def views(occ: np.ndarray) -> list[np.ndarray]:
         return np.where(hit, ramp[first], 255).astype(np.uint8)
 
     front = shade(occ.transpose(0, 2, 1))[:, ::-1].T          # rows z (top up), cols x
-    side = shade(occ[::-1].transpose(1, 2, 0))[::-1, ::-1].T    # rows z, cols -y..+y reversed
+    side = shade(occ[::-1].transpose(1, 2, 0))[:, ::-1].T       # rows z, cols -y..+y
     top = shade(occ[:, :, ::-1])[:, ::-1].T[::-1]               # rows y (-y bottom), cols x
     return [front, side, top]
 

@@ -35,11 +35,29 @@ from e2vlib.experiments.real_meshes.meshes import obj_to_mesh
 from e2vlib.experiments.real_objects.sources import MEMBER_SEP
 
 DROP_PARTS = re.compile(
-    r"(?i)shadow|(^|[^a-z])lod|lowres|low[-_ ]?poly[-_ ]?copy|light[-_ ]?cone|cone[-_ ]?light|"
+    r"(?i)(?<!silver_)shadow|(^|[^a-z])lod[-_ ]?([1-9]|low|far|med)|low[-_ ]?lod|lowres|low[-_ ]?poly[-_ ]?copy|light[-_ ]?cone|cone[-_ ]?light|"
     r"lightcone|beam|halo|glow|flare|light[-_ ]?volume|procedural[-_ ]?light|"
-    r"^(ground|groundplane|plane_ground)$")
+    r"^(groundplane|plane_ground)$")
 """Names of AC3D objects left out: shadow squares, level-of-detail copies, light cones,
 halos and ground planes (FlightGear and TORCS name them so)."""
+
+
+def drop_part(name: str) -> bool:
+    """Whether an AC3D object named ``name`` is left out: :data:`DROP_PARTS`, except that
+    of FlightGear's level-of-detail groups (``LOD near/far``) the nearest one is kept.
+
+    Examples
+    --------
+    >>> [drop_part(n) for n in ("LOD 0.000000/1000.0", "LOD 1000/5000", "shadow", "wing",
+    ...                         "Default LOD", "body_lod1")]
+    [False, True, True, False, False, True]
+    """
+    m = re.match(r"(?i)lod[ _]?(\d+(\.\d*)?)/", name)
+    if m:
+        return float(m.group(1)) > 0
+    return bool(DROP_PARTS.search(name))
+
+
 FORMAT_TURNS = {".ac": "x90", ".acc": "x90", ".obj": "x90", ".3ds": "", ".md2": "",
                 ".md3": ""}
 """The turn from each format's axes to ours (z up) before the reviewed ``rotation``:
@@ -174,8 +192,8 @@ def read_model(root: str | os.PathLike, path: str,
     data = read_bytes(root, path)
     where = path
     if suffix in (".ac", ".acc"):
-        return ac3d_to_mesh(data.decode("latin-1"), where,
-                            drop=lambda name: bool(DROP_PARTS.search(name)), dropped=removed)
+        return ac3d_to_mesh(data.decode("latin-1"), where, drop=drop_part, dropped=removed,
+                            strict=False)
     if suffix == ".obj":
         return obj_to_mesh(data, where)
     if suffix == ".md2":

@@ -1,0 +1,222 @@
+"""Joins the candidates, the review, the duplicates and the reviewed Sweet Home 3D rows into
+the committed catalogue (:data:`~e2vlib.experiments.real_objects.catalogue.CATALOGUE_CSV`).
+
+The review, ``<cache>/review.csv`` (key, category, rotation, keep, note), is what a person
+wrote after looking at the contact sheets; every candidate needs a row there. Kept models
+whose surface grids match an earlier kept model of their category (IoU above
+:data:`~e2vlib.experiments.real_objects.look.DEDUP_IOU`) are dropped as duplicates; the
+split is assigned by :func:`~e2vlib.experiments.real_objects.catalogue.assign_splits`.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import re
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from e2vlib.experiments.real_meshes.mapping import read_mapping
+from e2vlib.experiments.real_objects.catalogue import CATALOGUE_CSV, assign_splits, write_rows
+from e2vlib.experiments.real_objects.sources import PACKAGES, Candidate, find_candidates
+
+DEFAULT_ROTATION = {
+    "flightgear-data-base": "z90", "flightgear-data-ai": "z90",
+    "flightgear-data-models": "z90", "torcs-data": "z90", "ufoai-data": "z-90",
+    "openarena-data": "z-90", "gl-117-data": "", "minetest-mod-homedecor": "",
+    "sweethome3d": "",
+}
+"""The turn (after the format's own, :data:`~e2vlib.experiments.real_objects.readers.FORMAT_TURNS`)
+that puts most models of each source upright and facing -y; the review overrides it per
+model."""
+
+
+def candidate_key(c: Candidate) -> str:
+    """A plain file-name key of a candidate: package code and path, lower case."""
+    tail = c.path.split("::")[-1]
+    tail = re.sub(r"^(usr/share/games/flightgear/|usr/share/games/[^/]+/)", "", tail)
+    slug = re.sub(r"[^a-z0-9]+", "_", tail.lower().rsplit(".", 1)[0]).strip("_")
+    return f"{PACKAGES[c.source][0]}__{slug}"
+
+
+def read_review(cache: Path) -> dict[str, dict]:
+    """The review rows written after looking (``<cache>/review.csv``), by candidate key."""
+    path = cache / "review.csv"
+    if not path.is_file():
+        return {}
+    with open(path, newline="") as f:
+        return {row["key"]: row for row in csv.DictReader(f)}
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+
+
+def build_grids(cache: Path, only: str | None = None) -> None:
+    """Load every candidate (or those whose key matches ``only``) in our frame and store its
+    surface grid, rotation and removed parts in ``<cache>/grids/<key>.npz``; a model that
+    cannot be read is stored with its error (the sheets show it grey)."""
+    from e2vlib.experiments.real_objects.look import surface_grid
+    from e2vlib.experiments.real_objects.readers import load_model
+
+    review = read_review(cache)
+    out = cache / "grids"
+    out.mkdir(parents=True, exist_ok=True)
+    cands = find_candidates(cache)
+    start = time.monotonic()
+    for i, c in enumerate(cands):
+        key = candidate_key(c)
+        if only and not re.search(only, key):
+            continue
+        rotation = review.get(key, {}).get("rotation", DEFAULT_ROTATION[c.source])
+        file = out / f"{key}.npz"
+        if file.is_file():
+            old = np.load(file)
+            if str(old["rotation"]) == rotation:
+                continue
+        removed: list[str] = []
+        try:
+            mesh = load_model(cache / "pkgs" / c.source, c.path, rotation, removed)
+            occ = surface_grid(mesh)
+            info = {"faces": len(mesh.faces), "parts": int(mesh.body_count)
+                    if len(mesh.faces) < 200_000 else -1, "error": ""}
+        except Exception as err:  # recorded: the review sees the failure on the sheet
+            occ, info = np.zeros((1, 1, 1), bool), {"error": f"{type(err).__name__}: {err}"}
+        tmp = out / f"{key}.tmp.npz"
+        np.savez_compressed(tmp, occ=np.packbits(occ), shape=occ.shape, rotation=rotation,
+                            removed=json.dumps(sorted(set(removed))), info=json.dumps(info))
+        os.replace(tmp, file)
+        print(f"{i + 1}/{len(cands)} {key} {info.get('error', '')[:80]} "
+              f"{time.monotonic() - start:.0f}s", flush=True)
+
+
+def load_grid(cache: Path, key: str) -> tuple[np.ndarray | None, dict]:
+    """The stored grid of candidate ``key`` (None when it failed) and its facts."""
+    file = cache / "grids" / f"{key}.npz"
+    if not file.is_file():
+        return None, {"error": "no grid"}
+    z = np.load(file)
+    info = json.loads(str(z["info"]))
+    info["removed"] = json.loads(str(z["removed"]))
+    info["rotation"] = str(z["rotation"])
+    if info.get("error"):
+        return None, info
+    shape = tuple(z["shape"])
+    occ = np.unpackbits(z["occ"])[:int(np.prod(shape))].reshape(shape).astype(bool)
+    return occ, info
+
+
+def build_sheets(cache: Path, per_sheet: int = 30, only: str | None = None) -> None:
+    """Draw the contact sheets of the candidates (``<cache>/sheets/sheet_NNN.png``, cells
+    labelled ``sheet.cell key``) and their index (``index.json``)."""
+    from e2vlib.experiments.real_objects.look import contact_sheet
+
+    out = cache / "sheets"
+    out.mkdir(parents=True, exist_ok=True)
+    cands = [c for c in find_candidates(cache) if not only or re.search(only, candidate_key(c))]
+    cands.sort(key=lambda c: (c.category, c.source, c.path))
+    index = []
+    for s in range(0, len(cands), per_sheet):
+        cells = []
+        for j, c in enumerate(cands[s:s + per_sheet]):
+            key = candidate_key(c)
+            occ, info = load_grid(cache, key)
+            n = s // per_sheet
+            cells.append((f"{n}.{j} {key.split('__', 1)[1][-30:]}", occ))
+            index.append({"sheet": n, "cell": j, "key": key, "category": c.category,
+                          "error": info.get("error", ""), "removed": info.get("removed", [])})
+        name = f"sheet_{s // per_sheet:03d}.png"
+        contact_sheet(cells).save(out / name)
+    _write_atomic(out / "index.json", json.dumps(index, indent=0).encode())
+    print(f"{len(index)} models on {-(-len(index) // per_sheet)} sheets in {out}")
+
+
+
+
+def removed_summary(names: list[str]) -> str:
+    """The parts a reader left out, summarized by kind (``shadow x2; lod x1``).
+
+    Examples
+    --------
+    >>> removed_summary(["shadow", "Shadow.001", "LOD 1000/5000", "light-cone"])
+    'light cone x1; lod copy x1; shadow x2'
+    """
+    kinds = Counter()
+    for name in names:
+        low = name.lower()
+        kind = ("shadow" if "shadow" in low else "lod copy" if "lod" in low
+                else "light cone" if "cone" in low or "beam" in low
+                else "halo/glow" if re.search("halo|glow|flare", low)
+                else "ground" if "ground" in low else "other")
+        kinds[kind] += 1
+    return "; ".join(f"{k} x{n}" for k, n in sorted(kinds.items()))
+
+
+def _short(path: str) -> str:
+    tail = path.split("::")[-1]
+    parts = [re.sub(r"[^a-z0-9]+", "_", p.lower()).strip("_") for p in tail.split("/")]
+    parts[-1] = re.sub(r"_(ac|acc|obj|md2|md3|3ds)$", "", parts[-1])
+    return "_".join(parts[-2:]) if len(parts) > 1 else parts[-1]
+
+
+def write_catalogue(cache: str | Path, out: str | Path = CATALOGUE_CSV) -> dict[str, int]:
+    """Write the catalogue from the candidates under ``cache`` and its review; returns the
+    kept objects per category. Raises KeyError naming candidates no one has looked at."""
+    from e2vlib.experiments.real_objects.look import duplicates, pool
+
+    cache = Path(cache)
+    review = read_review(cache)
+    cands = find_candidates(cache)
+    missing = [candidate_key(c) for c in cands if candidate_key(c) not in review]
+    if missing:
+        raise KeyError(f"{len(missing)} candidates have no review row in {cache}/review.csv "
+                       f"({', '.join(missing[:5])}...): look at their sheets first")
+    rows, grids, cats, used = [], {}, {}, set()
+    for c in cands:
+        key = candidate_key(c)
+        r = review[key]
+        occ, info = load_grid(cache, key)
+        category = r["category"]
+        rid = f"{category}_{PACKAGES[c.source][0]}_{_short(c.path)}"
+        base, k = rid, 2
+        while rid in used:
+            rid, k = f"{base}_{k}", k + 1
+        used.add(rid)
+        keep = r["keep"] == "yes" and occ is not None
+        note = r["note"] if occ is not None else f"{r['note']} (unreadable: {info['error']})"
+        rows.append({"id": rid, "source": c.source, "path": c.path, "licence": c.licence,
+                     "category": category, "rotation": r["rotation"],
+                     "removed": removed_summary(info.get("removed", [])),
+                     "keep": "yes" if keep else "no", "split": "", "note": note})
+        if keep:
+            grids[rid], cats[rid] = pool(occ), category
+    dups = duplicates(grids, cats)
+    for row in rows:
+        if row["id"] in dups:
+            other, score = dups[row["id"]]
+            row["keep"] = "no"
+            row["note"] += f"; duplicate of {other} by geometry (IoU {score})"
+    for m in read_mapping():
+        source = "crrcsim-data" if m.library == "crrcsim-data" else "sweethome3d-furniture"
+        path = m.entry_id if source == "crrcsim-data" else f"{m.library}::{m.entry_id}"
+        rows.append({"id": m.id, "source": source, "path": path, "licence": m.licence,
+                     "category": m.category, "rotation": m.pose, "removed": "",
+                     "keep": "yes", "split": "", "note": m.note})
+    by_cat: dict[str, list[str]] = {}
+    for row in rows:
+        if row["keep"] == "yes":
+            by_cat.setdefault(row["category"], []).append(row["id"])
+    splits = assign_splits(by_cat)
+    for row in rows:
+        row["split"] = splits.get(row["id"], "")
+    rows.sort(key=lambda r: (r["category"], r["id"]))
+    write_rows(out, rows)
+    counts = {cat: len(ids) for cat, ids in sorted(by_cat.items())}
+    print(f"{sum(counts.values())} kept of {len(rows)} rows: {counts}")
+    return counts
