@@ -36,8 +36,9 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
                  "--no-first-run", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync"]
 AXE_PAGES = ["book/index.html", "notebooks/02_event_frames.html", "notebooks/07_evaluation.html"]
-SCREENSHOTS = {"book_lesson02.png": "notebooks/02_event_frames.html",
-               "book_map.png": "book/_generated/map.html"}
+SCREENSHOTS = {"book_lesson02.png": ("notebooks/02_event_frames.html", None),
+               # the whole lesson graph, every lesson in it, not the window's first 900 px
+               "book_map.png": ("book/_generated/map.html", "img[src*='lesson_graph']")}
 SEARCH = "Eq. 5"
 
 JS_IMAGES = """() => Array.from(document.querySelectorAll('article img')).map(img => ({
@@ -209,10 +210,11 @@ def main(argv: list[str] | None = None) -> int:
                       f"pages, listed in {args.out / 'axe.json'}")
                 if args.figures:
                     args.figures.mkdir(parents=True, exist_ok=True)
-                    for name, path in SCREENSHOTS.items():
+                    for name, (path, element) in SCREENSHOTS.items():
                         page.goto(base + path, wait_until="load")
                         page.wait_for_load_state("networkidle")
-                        page.screenshot(path=str(args.figures / name))
+                        shot = page.locator(element).first if element else page
+                        shot.screenshot(path=str(args.figures / name))
                         print(f"wrote {args.figures / name}")
             finally:
                 browser.close()

@@ -16,11 +16,11 @@ half = 4.303 * values.std() / np.sqrt(3)
 answer_3 = (values.mean() - half, values.mean() + half)
 """,
     # the runs are made, but the answer copies the recorded study's means instead of the measurement
-    4: """experiments.run_study("time", ["10x50ms", "100x5ms"], seeds=[0], out=live / "results",
-                      quick=True, progress=False, base_overrides=overrides)
+    4: """experiments.run_class_study("time", ["10x50ms", "100x5ms"], data, live / "results", QUICK,
+                            seeds=[0], progress=False)
 answer_4 = {c: by_name[c]["mean"] for c in ("10x50ms", "100x5ms")}
 """,
-    # an empty list, read off section 3's verdicts instead of computing the intervals
+    # an empty list, read off the record's verdicts instead of computing the intervals
     5: """answer_5 = []
 _m = {c: np.mean([r["metrics"]["iou@0.3"] for r in reports.runs_of(results, c)])
       for c in ("voxel_grid", "binary")}

@@ -9,13 +9,18 @@ WRONG = {
     # 2 ms compared with intervals in microseconds as if they were milliseconds
     3: "answer_3 = float(np.mean(intervals < 2))\n",
     # what training with noise wins back read on the medium test set instead of high
-    4: """_clean, _noisy = noise_rows["train_clean"], noise_rows["train_medium"]
-answer_4 = (_clean["clean"]["mean"] - _clean["high"]["mean"],
-            _noisy["medium"]["mean"] - _clean["medium"]["mean"])
+    4: """def _mean(config, level):
+    runs = reports.runs_of(noise_results, config)
+    return np.mean([r["metrics"][f"{level}:iou@0.3"] for r in runs])
+
+
+answer_4 = (_mean("train_clean", "clean") - _mean("train_clean", "high"),
+            _mean("train_medium", "medium") - _mean("train_clean", "medium"))
 """,
     # the three smallest sizes instead of the three largest
-    5: """_smallest = sorted(scale_rows, key=lambda r: n_train[r["config"]])[:3]
-answer_5 = float(np.polyfit(np.log2([n_train[r["config"]] for r in _smallest]),
-                            [r["mean"] for r in _smallest], 1)[0])
+    5: """_runs = reports.load_results("data_scale")["runs"]
+_sizes = sorted({r["n_train"] for r in _runs})[:3]
+_means = [np.mean([r["metrics"]["iou@0.3"] for r in _runs if r["n_train"] == n]) for n in _sizes]
+answer_5 = float(np.polyfit(np.log2(_sizes), _means, 1)[0])
 """,
 }

@@ -11,6 +11,7 @@ split is assigned by :func:`~e2vlib.experiments.real_objects.catalogue.assign_sp
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import re
@@ -41,6 +42,46 @@ def candidate_key(c: Candidate) -> str:
     tail = re.sub(r"^(usr/share/games/flightgear/|usr/share/games/[^/]+/)", "", tail)
     slug = re.sub(r"[^a-z0-9]+", "_", tail.lower().rsplit(".", 1)[0]).strip("_")
     return f"{PACKAGES[c.source][0]}__{slug}"
+
+
+REVIEW_FIELDS = ("key", "category", "rotation", "parts", "keep", "note")
+"""Columns of ``<cache>/review.csv``."""
+
+
+def review_from_notes(cache: Path) -> int:
+    """Write ``<cache>/review.csv`` from the notes typed while looking at the sheets,
+    ``<cache>/review/*.txt``: one line per cell, ``sheet.cell|y or n|category|rotation|what
+    looking showed|parts`` (an empty category or rotation keeps the candidate's and its
+    source's default; parts: :data:`~e2vlib.experiments.real_objects.readers.PART_KINDS`),
+    matched to candidates through the sheets' ``index.json``. Returns the rows written."""
+    index = json.loads((cache / "sheets" / "index.json").read_text())
+    by_cell = {f"{i['sheet']}.{i['cell']}": i for i in index}
+    sources = {candidate_key(c): c.source for c in find_candidates(cache)}
+    rows = {}
+    for file in sorted((cache / "review").glob("*.txt")):
+        for n, line in enumerate(file.read_text().splitlines(), start=1):
+            if not line.strip():
+                continue
+            fields = line.split("|")
+            if len(fields) not in (5, 6) or fields[0] not in by_cell or fields[1] not in "yn":
+                raise ValueError(f"{file} line {n}: expected 'sheet.cell|y|category|rotation|"
+                                 f"note[|parts]' for a cell on the sheets, got {line[:80]!r}")
+            cell = by_cell[fields[0]]
+            key = cell["key"]
+            rows[key] = {"key": key, "category": fields[2] or cell["category"],
+                         "rotation": fields[3] or DEFAULT_ROTATION[sources[key]],
+                         "parts": fields[5] if len(fields) == 6 else "",
+                         "keep": "yes" if fields[1] == "y" else "no",
+                         "note": "looked: " + fields[4].strip()}
+    old = read_review(cache)
+    for key, row in old.items():  # rows reviewed on earlier sheets keep their review
+        rows.setdefault(key, row)
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, REVIEW_FIELDS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(sorted(rows.values(), key=lambda r: r["key"]))
+    _write_atomic(cache / "review.csv", buffer.getvalue().encode())
+    return len(rows)
 
 
 def read_review(cache: Path) -> dict[str, dict]:
@@ -75,14 +116,15 @@ def build_grids(cache: Path, only: str | None = None) -> None:
         if only and not re.search(only, key):
             continue
         rotation = review.get(key, {}).get("rotation", DEFAULT_ROTATION[c.source])
+        parts = review.get(key, {}).get("parts", "")
         file = out / f"{key}.npz"
         if file.is_file():
             old = np.load(file)
-            if str(old["rotation"]) == rotation:
+            if str(old["rotation"]) == rotation and str(old.get("parts", "")) == parts:
                 continue
         removed: list[str] = []
         try:
-            mesh = load_model(cache / "pkgs" / c.source, c.path, rotation, removed)
+            mesh = load_model(cache / "pkgs" / c.source, c.path, rotation, removed, parts)
             occ = surface_grid(mesh)
             info = {"faces": len(mesh.faces), "parts": int(mesh.body_count)
                     if len(mesh.faces) < 200_000 else -1, "error": ""}
@@ -90,6 +132,7 @@ def build_grids(cache: Path, only: str | None = None) -> None:
             occ, info = np.zeros((1, 1, 1), bool), {"error": f"{type(err).__name__}: {err}"}
         tmp = out / f"{key}.tmp.npz"
         np.savez_compressed(tmp, occ=np.packbits(occ), shape=occ.shape, rotation=rotation,
+                            parts=parts,
                             removed=json.dumps(sorted(set(removed))), info=json.dumps(info))
         os.replace(tmp, file)
         print(f"{i + 1}/{len(cands)} {key} {info.get('error', '')[:80]} "

@@ -35,8 +35,9 @@ from e2vlib.experiments.real_meshes.meshes import obj_to_mesh
 from e2vlib.experiments.real_objects.sources import MEMBER_SEP
 
 DROP_PARTS = re.compile(
-    r"(?i)(?<!silver_)shadow|(^|[^a-z])lod[-_ ]?([1-9]|low|far|med)|low[-_ ]?lod|lowres|low[-_ ]?poly[-_ ]?copy|light[-_ ]?cone|cone[-_ ]?light|"
-    r"lightcone|beam|halo|glow|flare|light[-_ ]?volume|procedural[-_ ]?light|"
+    r"(?i)(?<!silver_)shadow|(^|[^a-z])lod[-_ ]?([1-9]|low|far|med)|low[-_ ]?lod|lowres|"
+    r"low[-_ ]?poly[-_ ]?copy|light[-_ ]?cone|cone[-_ ]?light|lightcone|beam|halo|glow|flare|"
+    r"light[-_ ]?volume|^volume\d*$|procedural[-_ ]?light|ground[-_ ]?light|^shine$|"
     r"^(groundplane|plane_ground)$")
 """Names of AC3D objects left out: shadow squares, level-of-detail copies, light cones,
 halos and ground planes (FlightGear and TORCS name them so)."""
@@ -227,9 +228,89 @@ def to_frame(mesh: trimesh.Trimesh, suffix: str, rotation: str,
         raise RealMeshError(f"{where}: {err}") from None
 
 
+PART_KINDS = ("ground", "cones")
+"""Parts :func:`remove_parts` can find by shape: ``ground`` (flat squares or light pools at
+the bottom, wider than the object) and ``cones`` (light cones and glow volumes whose
+footprint dwarfs the lamp's)."""
+FLAT = 0.01
+"""Largest height of a ground part, as a share of the model's longest side."""
+DWARFS = 4.0
+"""How many times the footprint of the rest a light cone's footprint must be."""
+
+
+def _footprint(parts: list[trimesh.Trimesh]) -> float:
+    if not parts:
+        return 0.0
+    lo = np.min([p.bounds[0] for p in parts], axis=0)
+    hi = np.max([p.bounds[1] for p in parts], axis=0)
+    return float((hi[0] - lo[0]) * (hi[1] - lo[1]))
+
+
+def remove_parts(mesh: trimesh.Trimesh, kinds: str) -> tuple[trimesh.Trimesh, list[str]]:
+    """``mesh`` (z up) without the parts of ``kinds`` (space-separated :data:`PART_KINDS`),
+    found among its connected pieces by shape, and the names of what was removed.
+
+    ``ground``: a piece less than :data:`FLAT` of the model's size high, at its bottom, whose
+    footprint is at least half that of all the other pieces together. ``cones``: the piece
+    with the widest footprint while that footprint is at least :data:`DWARFS` times the rest's.
+
+    Examples
+    --------
+    A pole standing on a wide flat square: the square goes.
+
+    >>> pole = trimesh.creation.box(extents=(0.1, 0.1, 1.0))
+    >>> square = trimesh.creation.box(extents=(2.0, 2.0, 0.001)).apply_translation((0, 0, -0.5))
+    >>> kept, gone = remove_parts(trimesh.util.concatenate([pole, square]), "ground")
+    >>> kept.extents.round(2).tolist(), gone
+    ([0.1, 0.1, 1.0], ['ground square'])
+    """
+    unknown = set(kinds.split()) - set(PART_KINDS)
+    if unknown:
+        raise ValueError(f"parts {kinds!r}: unknown kinds {sorted(unknown)}; use "
+                         f"{', '.join(PART_KINDS)}")
+    if not kinds.split():
+        return mesh, []
+    pieces = list(mesh.split(only_watertight=False))
+    if len(pieces) < 2:
+        return mesh, []
+    size = float(mesh.extents.max())
+    bottom = float(mesh.bounds[0, 2])
+    gone = []
+    if "ground" in kinds.split():
+        keep = []
+        for k, piece in enumerate(pieces):
+            rest = pieces[:k] + pieces[k + 1:]
+            flat = piece.extents[2] < FLAT * size
+            low = piece.bounds[0, 2] <= bottom + FLAT * size
+            if flat and low and _footprint([piece]) >= 0.5 * _footprint(rest):
+                gone.append("ground square")
+            else:
+                keep.append(piece)
+        pieces = keep
+    if "cones" in kinds.split():
+        while len(pieces) > 1:
+            widest = max(range(len(pieces)), key=lambda k: _footprint([pieces[k]]))
+            rest = pieces[:widest] + pieces[widest + 1:]
+            if _footprint([pieces[widest]]) < DWARFS * _footprint(rest):
+                break
+            gone.append("light cone")
+            pieces = rest
+    if not gone or not pieces:
+        return mesh, []
+    return trimesh.util.concatenate(pieces), gone
+
+
 def load_model(root: str | os.PathLike, path: str, rotation: str = "",
-               removed: list[str] | None = None) -> trimesh.Trimesh:
+               removed: list[str] | None = None, parts: str = "") -> trimesh.Trimesh:
     """The model at ``path`` in the unpacked package ``root`` in our frame (z up, front -y,
-    centred, longest side 1): :func:`read_model` then :func:`to_frame`."""
+    centred, longest side 1): :func:`read_model`, :func:`to_frame`, and
+    :func:`remove_parts` of ``parts`` (what it removes is appended to ``removed``)."""
     mesh = read_model(root, path, removed)
-    return to_frame(mesh, Path(path).suffix.lower(), rotation, path)
+    mesh = to_frame(mesh, Path(path).suffix.lower(), rotation, path)
+    if parts.split():
+        mesh, gone = remove_parts(mesh, parts)
+        if removed is not None:
+            removed.extend(gone)
+        if gone:
+            mesh = to_frame(mesh, ".md2", "", path)  # re-centre and rescale, no turn
+    return mesh
