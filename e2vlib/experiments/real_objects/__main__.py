@@ -4,16 +4,19 @@
     python -m e2vlib.experiments.real_objects extract  --cache cache/real_objects
     python -m e2vlib.experiments.real_objects grids    --cache cache/real_objects
     python -m e2vlib.experiments.real_objects sheets   --cache cache/real_objects
+    python -m e2vlib.experiments.real_objects review   --cache cache/real_objects
     python -m e2vlib.experiments.real_objects catalogue --cache cache/real_objects
 
 ``download`` and ``extract`` fetch and unpack the Debian packages
 (:mod:`~e2vlib.experiments.real_objects.sources`); ``grids`` loads every candidate in our
-frame (its reviewed rotation, else its source's default) and stores its surface grid and
-the parts left out under ``<cache>/grids``; ``sheets`` draws the contact sheets to look at
-(``<cache>/sheets``); ``catalogue`` joins the candidates, the review
-(``<cache>/review.csv``: key, category, rotation, keep, note, written by the person who
-looked), the duplicates and the reviewed Sweet Home 3D rows into
-``experiments/real_objects/catalogue.csv`` with its split.
+frame (its reviewed rotation and parts, else its source's default) and stores its surface
+grid and the parts left out under ``<cache>/grids``; ``sheets`` draws contact sheets of the
+candidates no one has looked at yet (``<cache>/sheets``); ``review`` turns the notes typed
+while looking (``<cache>/review/*.txt``, one line per sheet cell) into
+``<cache>/review.csv``; ``catalogue`` joins the candidates, the review (or, without
+``review.csv``, the committed catalogue read back), the duplicates by geometry and the
+reviewed Sweet Home 3D rows into ``experiments/real_objects/catalogue.csv`` with its split.
+Rerun ``grids`` after the review changes a rotation or the parts to remove.
 """
 
 from __future__ import annotations
@@ -27,16 +30,19 @@ from e2vlib.experiments.real_objects.build import (
     build_grids,
     build_sheets,
     candidate_key,
+    review_from_notes,
     write_catalogue,
 )
 from e2vlib.experiments.real_objects.sources import download, extract, find_candidates
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one recorded step (``argv``: the command line after the module name); prints what
+    it did and the seconds it took; returns the exit status (0)."""
     parser = argparse.ArgumentParser(prog="python -m e2vlib.experiments.real_objects",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("step", choices=["download", "extract", "candidates", "grids",
-                                         "sheets", "catalogue"])
+                                         "sheets", "review", "catalogue"])
     parser.add_argument("--cache", type=Path, default=Path("cache/real_objects"))
     parser.add_argument("--only", default=None, help="regex on candidate keys")
     args = parser.parse_args(argv)
@@ -52,6 +58,8 @@ def main(argv: list[str] | None = None) -> int:
         build_grids(args.cache, args.only)
     elif args.step == "sheets":
         build_sheets(args.cache, only=args.only)
+    elif args.step == "review":
+        print(f"{review_from_notes(args.cache)} review rows in {args.cache / 'review.csv'}")
     elif args.step == "catalogue":
         write_catalogue(args.cache)
     print(f"{args.step}: {time.monotonic() - start:.0f} s", file=sys.stderr)

@@ -1,8 +1,10 @@
 """Joins the candidates, the review, the duplicates and the reviewed Sweet Home 3D rows into
 the committed catalogue (:data:`~e2vlib.experiments.real_objects.catalogue.CATALOGUE_CSV`).
 
-The review, ``<cache>/review.csv`` (key, category, rotation, keep, note), is what a person
-wrote after looking at the contact sheets; every candidate needs a row there. Kept models
+The review, ``<cache>/review.csv`` (:data:`REVIEW_FIELDS`), is what a person wrote after
+looking at the contact sheets (:func:`review_from_notes`); every candidate needs a row there.
+Without it the committed catalogue is read back as the review (:func:`review_from_catalogue`),
+so the grids and the catalogue rebuild from the packages and the committed table. Kept models
 whose surface grids match an earlier kept model of their category (IoU above
 :data:`~e2vlib.experiments.real_objects.look.DEDUP_IOU`) are dropped as duplicates; the
 split is assigned by :func:`~e2vlib.experiments.real_objects.catalogue.assign_splits`.
@@ -23,13 +25,14 @@ import numpy as np
 
 from e2vlib.experiments.real_meshes.mapping import read_mapping
 from e2vlib.experiments.real_objects.catalogue import CATALOGUE_CSV, assign_splits, write_rows
+from e2vlib.experiments.real_objects.readers import GROUND_SQUARE, LIGHT_CONE
 from e2vlib.experiments.real_objects.sources import PACKAGES, Candidate, find_candidates
 
 DEFAULT_ROTATION = {
     "flightgear-data-base": "z90", "flightgear-data-ai": "z90",
     "flightgear-data-models": "z90", "torcs-data": "z90", "ufoai-data": "z-90",
-    "openarena-data": "z-90", "gl-117-data": "", "minetest-mod-homedecor": "",
-    "sweethome3d": "",
+    "openarena-data": "z-90", "gl-117-data": "none", "minetest-mod-homedecor": "none",
+    "sweethome3d": "none",
 }
 """The turn (after the format's own, :data:`~e2vlib.experiments.real_objects.readers.FORMAT_TURNS`)
 that puts most models of each source upright and facing -y; the review overrides it per
@@ -106,7 +109,7 @@ def build_grids(cache: Path, only: str | None = None) -> None:
     from e2vlib.experiments.real_objects.look import surface_grid
     from e2vlib.experiments.real_objects.readers import load_model
 
-    review = read_review(cache)
+    review = read_review(cache) or review_from_catalogue(cache)
     out = cache / "grids"
     out.mkdir(parents=True, exist_ok=True)
     cands = find_candidates(cache)
@@ -156,30 +159,33 @@ def load_grid(cache: Path, key: str) -> tuple[np.ndarray | None, dict]:
 
 
 def build_sheets(cache: Path, per_sheet: int = 30, only: str | None = None) -> None:
-    """Draw the contact sheets of the candidates (``<cache>/sheets/sheet_NNN.png``, cells
-    labelled ``sheet.cell key``) and their index (``index.json``)."""
+    """Draw contact sheets of the candidates no one has looked at yet (absent from
+    ``<cache>/review.csv``; with ``only``, those whose key matches), as
+    ``<cache>/sheets/sheet_NNN.png`` numbered on from the sheets already drawn, cells
+    labelled ``sheet.cell key``, and add them to the sheets' ``index.json``."""
     from e2vlib.experiments.real_objects.look import contact_sheet
 
     out = cache / "sheets"
     out.mkdir(parents=True, exist_ok=True)
-    cands = [c for c in find_candidates(cache) if not only or re.search(only, candidate_key(c))]
+    index_file = out / "index.json"
+    index = json.loads(index_file.read_text()) if index_file.is_file() else []
+    drawn, reviewed = {i["key"] for i in index}, read_review(cache)
+    first = 1 + max((i["sheet"] for i in index), default=-1)
+    cands = [c for c in find_candidates(cache) if (not only or re.search(only, candidate_key(c)))
+             and candidate_key(c) not in reviewed and candidate_key(c) not in drawn]
     cands.sort(key=lambda c: (c.category, c.source, c.path))
-    index = []
     for s in range(0, len(cands), per_sheet):
-        cells = []
+        cells, n = [], first + s // per_sheet
         for j, c in enumerate(cands[s:s + per_sheet]):
             key = candidate_key(c)
             occ, info = load_grid(cache, key)
-            n = s // per_sheet
             cells.append((f"{n}.{j} {key.split('__', 1)[1][-30:]}", occ))
             index.append({"sheet": n, "cell": j, "key": key, "category": c.category,
                           "error": info.get("error", ""), "removed": info.get("removed", [])})
-        name = f"sheet_{s // per_sheet:03d}.png"
-        contact_sheet(cells).save(out / name)
-    _write_atomic(out / "index.json", json.dumps(index, indent=0).encode())
-    print(f"{len(index)} models on {-(-len(index) // per_sheet)} sheets in {out}")
-
-
+        contact_sheet(cells).save(out / f"sheet_{n:03d}.png")
+    _write_atomic(index_file, json.dumps(index, indent=0).encode())
+    print(f"{len(cands)} models not yet looked at on {-(-len(cands) // per_sheet)} new sheets "
+          f"in {out}")
 
 
 def removed_summary(names: list[str]) -> str:
@@ -193,7 +199,8 @@ def removed_summary(names: list[str]) -> str:
     kinds = Counter()
     for name in names:
         low = name.lower()
-        kind = ("shadow" if "shadow" in low else "lod copy" if "lod" in low
+        kind = (name if name.endswith("(by shape)")
+                else "shadow" if "shadow" in low else "lod copy" if "lod" in low
                 else "light cone" if "cone" in low or "beam" in low
                 else "halo/glow" if re.search("halo|glow|flare", low)
                 else "ground" if "ground" in low else "other")
@@ -208,13 +215,37 @@ def _short(path: str) -> str:
     return "_".join(parts[-2:]) if len(parts) > 1 else parts[-1]
 
 
-def write_catalogue(cache: str | Path, out: str | Path = CATALOGUE_CSV) -> dict[str, int]:
-    """Write the catalogue from the candidates under ``cache`` and its review; returns the
-    kept objects per category. Raises KeyError naming candidates no one has looked at."""
+def review_from_catalogue(cache: Path, path: str | Path = CATALOGUE_CSV) -> dict[str, dict]:
+    """The review rows read back from a written catalogue (category, rotation, keep, note;
+    the parts removed by shape from its ``removed`` column), by candidate key: the
+    committed catalogue is the review when ``<cache>/review.csv`` is absent."""
+    from e2vlib.experiments.real_objects.catalogue import read_catalogue
+
+    keys = {(c.source, c.path): candidate_key(c) for c in find_candidates(cache)}
+    out = {}
+    for row in read_catalogue(path, kept_only=False):
+        key = keys.get((row.source, row.path))
+        if key is None:
+            continue
+        parts = " ".join(kind for kind, name in (("ground", GROUND_SQUARE), ("cones", LIGHT_CONE))
+                         if name in row.removed)
+        note = re.sub(r"; duplicate of \S+ by geometry \(IoU [0-9.]+\)$", "", row.note)
+        note = re.sub(r" \(unreadable: .*\)$", "", note)
+        keep = row.keep or "; duplicate of " in row.note
+        out[key] = {"key": key, "category": row.category, "rotation": row.rotation,
+                    "parts": parts, "keep": "yes" if keep else "no", "note": note}
+    return out
+
+
+def write_catalogue(cache: str | Path, out: str | Path = CATALOGUE_CSV,
+                    reviewed: str | Path = CATALOGUE_CSV) -> dict[str, int]:
+    """Write the catalogue ``out`` from the candidates under ``cache`` and their review
+    (``<cache>/review.csv``, else the catalogue ``reviewed`` read back); returns the kept
+    objects per category. Raises KeyError naming candidates no one has looked at."""
     from e2vlib.experiments.real_objects.look import duplicates, pool
 
     cache = Path(cache)
-    review = read_review(cache)
+    review = read_review(cache) or review_from_catalogue(cache, reviewed)
     cands = find_candidates(cache)
     missing = [candidate_key(c) for c in cands if candidate_key(c) not in review]
     if missing:

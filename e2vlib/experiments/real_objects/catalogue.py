@@ -1,7 +1,8 @@
-"""The committed catalogue of real objects, ``experiments/real_objects/catalogue.csv``.
+"""The committed catalogue of real objects and its checker.
 
-One row per model looked at (:data:`FIELDS`): our id (category first), the Debian package
-and the path inside it (``archive::member`` inside a zip; for the reviewed Sweet Home 3D
+``experiments/real_objects/catalogue.csv`` has one row per model looked at
+(:data:`FIELDS`): our id (category first), the Debian package and the path inside it
+(``archive::member`` inside a zip; for the reviewed Sweet Home 3D
 rows ``library::entry id``), its licence (SPDX), one of the paper's 13 categories, the
 rotation that stands it upright facing -y (turns such as ``z90``, after the format's own:
 :data:`~e2vlib.experiments.real_objects.readers.FORMAT_TURNS`; the Sweet Home 3D rows keep

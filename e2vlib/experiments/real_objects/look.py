@@ -11,8 +11,13 @@ are derived from GPL and CC-BY-SA models: they stay under ``cache/``.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import trimesh
+
+if TYPE_CHECKING:
+    import PIL.Image
 
 GRID = 64
 """Cells per side of the occupancy grid the pictures are drawn from."""
@@ -116,9 +121,10 @@ def views(occ: np.ndarray) -> list[np.ndarray]:
 
 
 def contact_sheet(cells: list[tuple[str, np.ndarray | None]], columns: int = 5,
-                  scale: int = 1):
-    """A PIL image of labelled cells, each the three :func:`views` of one grid side by side
-    (a grey cell for a model that could not be read)."""
+                  scale: int = 1) -> PIL.Image.Image:
+    """A greyscale PIL image of labelled cells, ``columns`` a row, each the three
+    :func:`views` of one grid side by side at ``scale`` pixels per grid cell (a grey cell for
+    a model that could not be read)."""
     from PIL import Image, ImageDraw
 
     n = GRID * scale

@@ -35,7 +35,7 @@ from e2vlib.experiments.real_meshes.meshes import obj_to_mesh
 from e2vlib.experiments.real_objects.sources import MEMBER_SEP
 
 DROP_PARTS = re.compile(
-    r"(?i)(?<!silver_)shadow|(^|[^a-z])lod[-_ ]?([1-9]|low|far|med)|low[-_ ]?lod|lowres|"
+    r"(?i)(?<!silver_)(?<!no)shadow|(^|[^a-z])lod[-_ ]?([1-9]|low|far|med)|low[-_ ]?lod|lowres|"
     r"low[-_ ]?poly[-_ ]?copy|light[-_ ]?cone|cone[-_ ]?light|lightcone|beam|halo|glow|flare|"
     r"light[-_ ]?volume|^volume\d*$|procedural[-_ ]?light|ground[-_ ]?light|^shine$|"
     r"^(groundplane|plane_ground)$")
@@ -232,8 +232,14 @@ PART_KINDS = ("ground", "cones")
 """Parts :func:`remove_parts` can find by shape: ``ground`` (flat squares or light pools at
 the bottom, wider than the object) and ``cones`` (light cones and glow volumes whose
 footprint dwarfs the lamp's)."""
-FLAT = 0.01
+GROUND_SQUARE, LIGHT_CONE = "ground square (by shape)", "light cone (by shape)"
+"""How :func:`remove_parts` names what it removes (the catalogue's ``removed`` column keeps
+these names, so the review can be read back from it)."""
+FLAT = 0.02
 """Largest height of a ground part, as a share of the model's longest side."""
+LOW = 0.1
+"""Highest top of a ground part above the model's bottom, as a share of its height (poles
+often reach a little below the ground square)."""
 DWARFS = 4.0
 """How many times the footprint of the rest a light cone's footprint must be."""
 
@@ -250,8 +256,9 @@ def remove_parts(mesh: trimesh.Trimesh, kinds: str) -> tuple[trimesh.Trimesh, li
     """``mesh`` (z up) without the parts of ``kinds`` (space-separated :data:`PART_KINDS`),
     found among its connected pieces by shape, and the names of what was removed.
 
-    ``ground``: a piece less than :data:`FLAT` of the model's size high, at its bottom, whose
-    footprint is at least half that of all the other pieces together. ``cones``: the piece
+    ``ground``: a piece less than :data:`FLAT` of the model's size high, lying within
+    :data:`LOW` of the model's height from its bottom, whose footprint is at least half that
+    of all the other pieces together. ``cones``: the piece
     with the widest footprint while that footprint is at least :data:`DWARFS` times the rest's.
 
     Examples
@@ -262,7 +269,7 @@ def remove_parts(mesh: trimesh.Trimesh, kinds: str) -> tuple[trimesh.Trimesh, li
     >>> square = trimesh.creation.box(extents=(2.0, 2.0, 0.001)).apply_translation((0, 0, -0.5))
     >>> kept, gone = remove_parts(trimesh.util.concatenate([pole, square]), "ground")
     >>> kept.extents.round(2).tolist(), gone
-    ([0.1, 0.1, 1.0], ['ground square'])
+    ([0.1, 0.1, 1.0], ['ground square (by shape)'])
     """
     unknown = set(kinds.split()) - set(PART_KINDS)
     if unknown:
@@ -274,16 +281,16 @@ def remove_parts(mesh: trimesh.Trimesh, kinds: str) -> tuple[trimesh.Trimesh, li
     if len(pieces) < 2:
         return mesh, []
     size = float(mesh.extents.max())
-    bottom = float(mesh.bounds[0, 2])
+    bottom, height = float(mesh.bounds[0, 2]), float(mesh.extents[2])
     gone = []
     if "ground" in kinds.split():
         keep = []
         for k, piece in enumerate(pieces):
             rest = pieces[:k] + pieces[k + 1:]
             flat = piece.extents[2] < FLAT * size
-            low = piece.bounds[0, 2] <= bottom + FLAT * size
+            low = piece.bounds[1, 2] <= bottom + LOW * height
             if flat and low and _footprint([piece]) >= 0.5 * _footprint(rest):
-                gone.append("ground square")
+                gone.append(GROUND_SQUARE)
             else:
                 keep.append(piece)
         pieces = keep
@@ -293,7 +300,7 @@ def remove_parts(mesh: trimesh.Trimesh, kinds: str) -> tuple[trimesh.Trimesh, li
             rest = pieces[:widest] + pieces[widest + 1:]
             if _footprint([pieces[widest]]) < DWARFS * _footprint(rest):
                 break
-            gone.append("light cone")
+            gone.append(LIGHT_CONE)
             pieces = rest
     if not gone or not pieces:
         return mesh, []

@@ -25,15 +25,15 @@ PACKAGES = {
     "flightgear-data-ai": ("fgai", "GPL-2.0-or-later"),
     "flightgear-data-models": ("fgm", "GPL-2.0-or-later"),
     "torcs-data": ("torcs", "GPL-2.0-or-later"),
-    "ufoai-data": ("ufo", "per file"),
+    "ufoai-data": ("ufo", "GPL-2.0-or-later"),
     "gl-117-data": ("gl117", "GPL-2.0-only"),
     "openarena-data": ("oa", "GPL-2.0-or-later"),
     "minetest-mod-homedecor": ("hd", "CC-BY-SA-4.0"),
     "sweethome3d": ("sh3d", "GPL-2.0-or-later"),
 }
 """Each Debian package: the short code used in our ids and its licence as its
-``/usr/share/doc/PKG/copyright`` states it for the model files (UFO:AI's differs per file:
-:func:`ufoai_licences`)."""
+``/usr/share/doc/PKG/copyright`` states it for the model files (``Files: *``; UFO:AI's
+copyright file names other licences for many files: :func:`ufoai_licences`)."""
 MEMBER_SEP = "::"
 """Joins an archive (``.pk3``/``.jar``) and a member in a candidate's path."""
 
@@ -92,11 +92,21 @@ FG = "usr/share/games/flightgear"
 RULES: list[tuple[str, str, str, str]] = [
     # (package, regex on the path inside the package, category, regex of paths left out)
     ("flightgear-data-base", rf"{FG}/Scenery/Models/Aircraft/[^/]+\.ac", "airplane",
-     r"(?i)heli|ec-?1[23]5|r44|r22|mi-8|lynx|puma|alouette|bo-?105|uh-?1|ch-?47|chinook|"
-     r"gazelle|dauphin|as350|services|strip|jetway|_roue|-roue|wheel|h-?60"),
-    ("flightgear-data-ai", rf"{FG}/AI/Aircraft/[^/]+/Models?/[^/]+\.ac", "airplane",
-     r"(?i)heli|seahawk|balloon|lights?|prop|refuel|strobe|beacon|shadow|gear|rotor|"
-     r"interior|cockpit|pilot"),
+     r"(?i)heli|ec-?1[23]5|^r44|^r22|mi-8|lynx|puma|alouette|bo-?105|uh-?1|ch-?47|chinook|"
+     r"gazelle|^dauphin|as350|services|jetway|_roue|-roue|wheel|h-?60"),
+    ("flightgear-data-ai", rf"{FG}/AI/Aircraft/[^/]+/(Models?/|Models/rnlaf/)?[^/]+\.ac",
+     "airplane", r"(?i)heli|balloon|^lights?|-light|light-|flare|prop|refuel|probe|strobe|"
+     r"beacon|shadow|gear|rotor|interior|cockpit|pilot|OMSPods|SSME|ferry|WhiteLight"),
+    ("flightgear-data-base", rf"{FG}/Scenery/Models/Airport/av8jet\.ac", "airplane", r"^$"),
+    ("flightgear-data-base", rf"{FG}/Aircraft/c172p/Models/c172p\.ac", "airplane", r"^$"),
+    ("flightgear-data-models", rf"{FG}/Models/Geometry/(KA6-D/KA6-D|KC135/KC135|"
+     r"A4-F/a4-f-tanker|KC-130/KC-130|glider)\.ac", "airplane", r"^$"),
+    ("flightgear-data-models", rf"{FG}/Models/Geometry/(saratoga|sailboat1/sailboat|"
+     r"Clemenceau/hull|Nimitz/(nimitz|vinson|truman))\.ac", "watercraft", r"^$"),
+    ("flightgear-data-base", rf"{FG}/Scenery/Objects/[^/]+/[^/]+/(USSArizona|T45_D36_moored|"
+     r"sanmateo-fb)\.ac", "watercraft", r"^$"),
+    ("flightgear-data-base", rf"{FG}/Scenery/Models/(Maritime/Misc/Narrowboat[^/]*|"
+     r"Sport/Optimist)\.ac", "watercraft", r"^$"),
     ("flightgear-data-models", rf"{FG}/Models/Aircraft/[^/]+\.ac", "airplane",
      r"(?i)H-60|strobe|dauphin|testpilot|towropes"),
     ("flightgear-data-base", rf"{FG}/Scenery/Models/Maritime/(Civilian|Military)/.+\.ac",
@@ -107,13 +117,13 @@ RULES: list[tuple[str, str, str, str]] = [
     ("flightgear-data-base", rf"{FG}/Scenery/Models/Maritime/Misc/liferaft.*\.ac",
      "watercraft", r"^$"),
     ("flightgear-data-base", rf"{FG}/Scenery/Models/(Transport|Airport/Vehicle)/[^/]+\.ac",
-     "car", r"(?i)container|train|coach|ice3|locomotive|loco|wagon|platform|station|barrel|"
-     r"tunnel|carpark|trailer|bus|truck|tender|metro|tram|class_|hitachi|lint|flatcar|"
+     "car", r"(?i)container|train|coach|ice3|locomotive|loco|wagon(?!taxi)|platform|station|barrel|"
+     r"tunnel|carpark|trailer|(?<!mini)bus(?!small)|(?<!com)truck|tender|metro|tram|class_|hitachi|lint|flatcar|"
      r"switcher|diesel|grader|roller|digger|dozer|forklift|dumptruck|steamroller|"
      r"consbrooms|grit|flash|dolly|cart|loader|stairs|gpu|cobus|citerne|chariot|caisses|"
      r"catruck|catering|lugg|fire|rosenbauer|panther|tlf|oshkosh|hoskosh|tug|tractor|"
      r"deicer|de-icer|lift|pushback|volocopter|fuel|f600|gwg|egkk|kontener|fc6m|"
-     r"norbert|eddi-flugverkehr|voyager|srn4|mxvt|fedex|usps|ups|comtruck|motorhome"),
+     r"norbert|eddi-flugverkehr|voyager|srn4|mxvt|fedex|usps|ups"),
     ("flightgear-data-base", rf"{FG}/Scenery/Models/StreetFurniture/[^/]+\.ac", "lamp",
      r"(?i)^(?!.*(lamp|light)).*$|barrier|crossing|pelican"),
     ("flightgear-data-base", rf"{FG}/Scenery/Models/(Misc|Sport|Residential)/"
@@ -140,7 +150,11 @@ of each minetest and pk3 candidate is set by :func:`_archive_candidates` and the
 UFOAI_RULES = [
     (r"models/weapons/[^/]+/[^/]+\.md2", "rifle",
      r"(?i)_ammo|ammo|clip|mag|grenade|knife|kerrblade|flashbang|smoke|stun|medikit|"
-     r"shell|bullet|mine|bolt|arrow|incgren|fraggren|_hud|_fp"),
+     r"shell|bullet|mine|arrow|incgren|fraggren|_hud|_fp"),
+    (r"models/objects/japan/stoel\.md2", "chair", r"^$"),
+    (r"models/objects/furniture/locker/[^/]+\.md2", "cabinet", r"^$"),
+    (r"models/objects/construct/workbench/[^/]+\.md2", "table", r"^$"),
+    (r"models/objects/industrial/console/console\.md2", "display", r"^$"),
     (r"models/objects/cars/.+\.md2", "car", r"(?i)trailer|roof|crashed|_t\.md2"),
     (r"models/objects/(aircraft/(airplane|fighter)|boat)/.+\.md2", "airplane", r"(?i)engine"),
     (r"models/aircraft/(drop|inter|ufo)_[^/]+/[^/]+\.md2", "airplane",
@@ -157,6 +171,7 @@ UFOAI_RULES = [
 OPENARENA_RULES = [
     (r"models/weapons2/[^/]+/[^/]+\.md3", "rifle",
      r"(?i)flash|barrel|hand|shell|_\d\.md3|gauntlet|grenadel|bfg"),
+    (r"models/weapons/nailgun/nailgun\.md3", "rifle", r"^$"),
 ]
 """OpenArena's ``baseoa/pak0.pk3``: (member regex, category, regex left out)."""
 
@@ -174,7 +189,8 @@ SH3D_RULES = [
 """Sweet Home 3D's own catalogue inside its jar: (member regex, category, regex left out)."""
 
 HOMEDECOR_CATEGORIES = [
-    (r"(?i)lamp|light|lantern|chandelier|sconce", "lamp"),
+    (r"(?i)lamp|light|lantern|chandelier|sconce|plasma_ball|candlestick", "lamp"),
+    (r"(?i)kitchen_sink|wine_rack", "cabinet"),
     (r"(?i)chair|stool|seat|bench", "chair"),
     (r"(?i)table|desk", "table"),
     (r"(?i)cabinet|dresser|wardrobe|nightstand|shelf|shelves|drawer|cupboard|bookcase|"
@@ -273,6 +289,8 @@ def _archive_candidates(pkgs: Path) -> list[Candidate]:
     for source, archive, rules in (
             ("ufoai-data", "usr/share/games/ufoai/base/0models.pk3", UFOAI_RULES),
             ("openarena-data", "usr/share/games/openarena/baseoa/pak0.pk3", OPENARENA_RULES),
+            ("openarena-data", "usr/share/games/openarena/missionpack/mp-pak0.pk3",
+             OPENARENA_RULES),
             ("sweethome3d", SH3D_JAR, SH3D_RULES)):
         path = pkgs / source / archive
         if not path.is_file():
