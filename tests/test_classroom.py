@@ -74,3 +74,26 @@ def test_the_figure_puts_the_class_study_beside_the_record_from_zero(class_run):
     assert np.allclose(heights, [0.6, 0.5])
     alone = classroom.plot_class_study(rows)
     assert len(alone.axes) == 1
+
+
+def _row(config: str, mean: float, low: float, high: float) -> dict:
+    return {"config": config, "mean": mean, "ci95": (low, high)}
+
+
+@pytest.mark.parametrize(("mine", "record", "quick", "word", "named"), [
+    ((0.50, 0.40, 0.60), (0.45, 0.40, 0.50), False, "agrees", "neither"),
+    ((0.50, 0.48, 0.52), (0.60, 0.58, 0.62), False, "agrees", "`b` ahead"),
+    ((0.50, 0.40, 0.60), (0.60, 0.58, 0.62), False, "cannot tell", "`b` ahead"),
+    ((0.40, 0.38, 0.42), (0.50, 0.40, 0.60), False, "is corrected by the record", "puts `a` ahead"),
+    ((0.40, 0.38, 0.42), (0.60, 0.58, 0.62), False, "is corrected by the record", "puts `b` ahead"),
+    ((0.50, 0.48, 0.52), (0.60, 0.58, 0.62), True, "is a smoke test", "Quick mode"),
+], ids=["both overlap", "both b", "class cannot tell", "record cannot tell", "opposite",
+        "quick"])
+def test_the_verdict_names_who_is_ahead_in_the_class_study_and_the_record(
+        mine, record, quick, word, named):
+    """``a`` scores 0.45 (0.43-0.47) in both; ``b`` is given as (mean, low, high)."""
+    a = _row("a", 0.45, 0.43, 0.47)
+    rows = [a, _row("b", *mine)]
+    recorded = [_row("b", *record), a]  # another order, the configs matched by name
+    found, sentence = classroom.class_verdict(rows, recorded, quick)
+    assert found == word and named in sentence, sentence

@@ -22,21 +22,33 @@ import nbformat
 import pytest
 
 from .conftest import REPO
+from .test_lesson_text import WORDS
 
 sys.path.insert(0, str(REPO / "tools"))
 from student import exercises, student_copy  # noqa: E402
 
 LESSONS = sorted((REPO / "notebooks").glob("[0-9][0-9]_*.ipynb"))
+APPENDIX = REPO / "notebooks" / "appendix_going_further.ipynb"  # runs like a lesson
 OUTPUT_PROCESS_TEXT = ("-dirty", "../shared")
 CELL_TIMEOUT_S = 600
 ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
 
 def wrong_answers(path) -> dict[int, str]:
-    """``{exercise number: source}`` from ``tests/wrong_answers/lesson_NN.py``."""
+    """``{exercise number: source}`` from ``tests/wrong_answers/lesson_NN.py`` (the appendix:
+    ``tests/wrong_answers/appendix_going_further.py``)."""
     import importlib
 
-    return importlib.import_module(f"tests.wrong_answers.lesson_{path.name[:2]}").WRONG
+    name = f"lesson_{path.name[:2]}" if path.name[:2].isdigit() else path.stem
+    return importlib.import_module(f"tests.wrong_answers.{name}").WRONG
+
+
+def generated_words(cells) -> int:
+    """Words of the Markdown that a lesson's own code cells displayed
+    (``display(Markdown(...))``); the inserted probe cells do not count."""
+    return sum(len("".join(output.get("data", {}).get("text/markdown", "")).split())
+               for cell in cells if cell.cell_type == "code" and "lesson_cell" in cell.metadata
+               for output in cell.get("outputs", []))
 
 
 def lesson_with_probes(nb, wrong: dict[int, str]):
@@ -83,12 +95,15 @@ def verdict(cell, expected: tuple[int, str] | None) -> str | None:
     return None
 
 
-def first_problem(nb, wrong: dict[int, str], folder) -> str | None:
+def first_problem(nb, wrong: dict[int, str], folder, ran: list | None = None) -> str | None:
     """Run ``nb`` with its probes in one kernel started in ``folder``; stop at the first cell
-    whose outputs are wrong and say which cell and why, or return None when all is well."""
+    whose outputs are wrong and say which cell and why, or return None when all is well.
+    ``ran``, when given, receives the executed cells."""
     from nbclient import NotebookClient
 
     run, expect = lesson_with_probes(nb, wrong)
+    if ran is not None:
+        ran.extend(run.cells)
     client = NotebookClient(run, timeout=CELL_TIMEOUT_S, kernel_name="python3",
                             allow_errors=True, resources={"metadata": {"path": str(folder)}})
     with client.setup_kernel():
@@ -106,15 +121,23 @@ def first_problem(nb, wrong: dict[int, str], folder) -> str | None:
     return None
 
 
-@pytest.mark.parametrize("path", LESSONS, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", [*LESSONS, APPENDIX], ids=lambda p: p.name)
 def test_lesson_runs_and_its_checks_reject_stubs_and_wrong_answers(path, monkeypatch):
+    """... and the Markdown its code generates fits the lesson's share of the word budget
+    (``WORDS`` in tests/test_lesson_text.py, which checks the typed share)."""
     monkeypatch.setenv("E2V_QUICK", os.environ.get("E2V_QUICK", "1"))
     monkeypatch.setenv("PYVISTA_JUPYTER_BACKEND",
                        os.environ.get("PYVISTA_JUPYTER_BACKEND", "static"))
     nb = nbformat.read(path, as_version=4)
-    problem = first_problem(nb, wrong_answers(path), path.parent)
+    ran = []
+    problem = first_problem(nb, wrong_answers(path), path.parent, ran)
     if problem is not None:
         pytest.fail(f"{path.name}: {problem}", pytrace=False)
+    if path in LESSONS:
+        words, budget = generated_words(ran), WORDS[path.name[:2]][1]
+        print(f"{path.name}: {words} words of generated Markdown (budget {budget})")
+        assert words <= budget, (f"{path.name} generates {words} words of Markdown; its share "
+                                 f"of the budget is {budget} (tests/test_lesson_text.py)")
 
 
 def _tiny_lesson(check: str, after: str = "print('done')"):

@@ -69,8 +69,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "classroom": [
             "CLASS_CATEGORIES", "CLASS_EPOCHS", "CLASS_FRAME_SIZE", "CLASS_PER_CATEGORY",
-            "CLASS_SEEDS", "build_mini_dataset", "class_overrides", "plot_class_study",
-            "run_class_study",
+            "CLASS_SEEDS", "build_mini_dataset", "class_overrides", "class_verdict", "leader",
+            "plot_class_study", "run_class_study",
         ],
         "caches": [
             "BUILD_WORKERS", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE", "EVENTS_COMMAND",

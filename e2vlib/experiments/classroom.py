@@ -25,7 +25,7 @@ from pathlib import Path
 
 from e2vlib.experiments.reports import load_results
 from e2vlib.experiments.runner import run_study
-from e2vlib.experiments.summary import plot_summary, summarize
+from e2vlib.experiments.summary import is_real_difference, plot_summary, summarize
 
 CLASS_CATEGORIES = ("chair", "table", "airplane")
 """The mini dataset's categories: a thin, a flat and a winged shape."""
@@ -109,3 +109,45 @@ def plot_class_study(rows: list[dict], recorded: list[dict] | None = None,
     if question:
         fig.suptitle(question, fontsize=10)
     return fig
+
+
+def leader(rows: Sequence[dict]) -> str | None:
+    """The config of two :func:`summarize` rows that is ahead beyond the seed spread (their
+    95 % intervals do not overlap), or None when the rule cannot tell them apart."""
+    first, second = rows
+    if not is_real_difference(first, second):
+        return None
+    return first["config"] if first["mean"] > second["mean"] else second["config"]
+
+
+def class_verdict(rows: Sequence[dict], recorded: Sequence[dict], quick: bool
+                  ) -> tuple[str, str]:
+    """How a class study's two rows compare with the recorded rows of the same configs:
+    ``(verdict, sentence)``, the verdict a predicate for "your class study ...": ``"is a smoke
+    test"`` (quick mode), ``"agrees"``, ``"cannot tell"`` (the record separates the configs,
+    the class study does not) or ``"is corrected by the record"`` (the class study separates
+    them and the record does not, or puts the other one ahead).
+
+    >>> mine = [{"config": "a", "mean": 0.5, "ci95": (0.4, 0.6)},
+    ...         {"config": "b", "mean": 0.55, "ci95": (0.45, 0.65)}]
+    >>> record = [{"config": "b", "mean": 0.6, "ci95": (0.58, 0.62)},
+    ...           {"config": "a", "mean": 0.4, "ci95": (0.38, 0.42)}]
+    >>> class_verdict(mine, record, quick=False)[0]
+    'cannot tell'
+    """
+    names = [r["config"] for r in rows]
+    record = [next(r for r in recorded if r["config"] == name) for name in names]
+    yours, theirs = leader(rows), leader(record)
+    if quick:
+        return "is a smoke test", ("Quick mode trains too little to compare: your panel is a smoke "
+                              "test of the code; run the lesson without `E2V_QUICK` for yours.")
+    if yours == theirs:
+        return "agrees", ("Your class study **agrees** with the record: " + (
+            "neither finds a difference beyond the seed spread." if theirs is None
+            else f"both put `{theirs}` ahead."))
+    if yours is None:
+        return "cannot tell", (f"The record puts `{theirs}` ahead; your class study, with "
+                               "fewer objects, **cannot tell** the two apart.")
+    return "is corrected by the record", (f"Your class study puts `{yours}` ahead, the record " + (
+        "finds no difference beyond the seed spread" if theirs is None
+        else f"puts `{theirs}` ahead") + ": the record, on more objects, **corrects** it.")
