@@ -45,7 +45,8 @@ copyright = "2026, the e2v notebooks authors; code MIT, lessons and figures CC B
 root_doc = "book/index"
 extensions = ["myst_nb"]
 include_patterns = ["book/index.md", "book/_generated/*.md", "docs/*.md",
-                    "notebooks/[0-9][0-9]_*.ipynb"]
+                    "notebooks/[0-9][0-9]_*.ipynb",
+                    "notebooks/appendix_going_further.ipynb"]
 exclude_patterns = ["build", ".venv", "**/.ipynb_checkpoints"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "html_image"]
 myst_heading_anchors = 3

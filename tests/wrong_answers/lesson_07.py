@@ -19,8 +19,4 @@ answer_3 = {"largest": sorted(size, key=size.get)[:3],
 """,
     # IoU as overlap over one box's size (7 / 8) instead of over the union
     4: 'answer_4 = {"iou": 7 / 8, "surface_f": 196 / 296}\n',
-    # reading (a) computed at the literal 20 % of the cube instead of 0.2 voxel
-    5: """answer_5 = {n: metrics.fscores(probs, labels, T, (D1, D20), n_points=n)
-            for n in (512, 8192)}
-""",
 }
