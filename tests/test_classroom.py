@@ -97,3 +97,14 @@ def test_the_verdict_names_who_is_ahead_in_the_class_study_and_the_record(
     recorded = [_row("b", *record), a]  # another order, the configs matched by name
     found, sentence = classroom.class_verdict(rows, recorded, quick)
     assert found == word and named in sentence, sentence
+
+
+def test_a_panel_title_gives_the_range_of_seeds_when_configs_differ():
+    rows = [{"config": "a", "n": 3, "mean": 0.4, "ci95": (0.3, 0.5), "values": [0.3, 0.4, 0.5]},
+            {"config": "b", "n": 5, "mean": 0.5, "ci95": (0.45, 0.55),
+             "values": [0.45, 0.5, 0.5, 0.5, 0.55]}]
+    fig = classroom.plot_class_study(rows[:1], rows)
+    assert fig.axes[0].get_title() == "your study (3 seeds, mini set)"
+    assert fig.axes[1].get_title() == "recorded study (3 seeds, data_small)"  # only a's row
+    fig = classroom.plot_class_study(rows, rows)
+    assert fig.axes[1].get_title() == "recorded study (3-5 seeds, data_small)"

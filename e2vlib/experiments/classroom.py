@@ -81,6 +81,12 @@ def run_class_study(study: str, configs: Sequence[str], data: str | os.PathLike,
     return [r for r in rows if r["config"] in configs]
 
 
+def _seeds(rows: Sequence[dict]) -> str:
+    """The number of seeds per config: ``"3"``, or a range such as ``"3-5"``."""
+    counts = sorted({r["n"] for r in rows})
+    return str(counts[0]) if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
+
+
 def plot_class_study(rows: list[dict], recorded: list[dict] | None = None,
                      metric: str = "iou@0.3", question: str = ""):
     """One figure: the student's class study (left) beside the recorded study's rows for the
@@ -88,12 +94,12 @@ def plot_class_study(rows: list[dict], recorded: list[dict] | None = None,
     interval and one dot per seed, both panels on one IoU axis from 0. Returns the figure."""
     import matplotlib.pyplot as plt
 
-    panels = [(rows, f"your study ({rows[0]['n']} seeds, mini set)")]
+    panels = [(rows, f"your study ({_seeds(rows)} seeds, mini set)")]
     if recorded:
         names = [r["config"] for r in rows]
         same = [r for r in recorded if r["config"] in names]
         same.sort(key=lambda r: names.index(r["config"]))
-        panels.append((same, f"recorded study ({same[0]['n']} seeds, data_small)"))
+        panels.append((same, f"recorded study ({_seeds(same)} seeds, data_small)"))
     fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels) + 0.6, 3.3),
                              sharey=True, squeeze=False, layout="constrained")
     top = max(max(r["values"]) for group, _ in panels for r in group)
