@@ -30,10 +30,10 @@ WORD_BUDGET = 20_000
 """Words of prose over all lessons: Markdown typed in the notebooks plus Markdown their code
 generates (``display(Markdown(...))``)."""
 WORDS = {  # lesson -> (typed Markdown words, generated Markdown words) it may hold
-    "00": (1300, 300), "01": (1300, 150), "02": (1700, 150), "03": (2000, 550),
-    "04": (1400, 200), "05": (1800, 200), "06": (1800, 550), "07": (1800, 350),
-    "08": (1400, 50), "09": (1100, 300), "10": (1150, 300), "11": (1100, 300),
-    "12": (1100, 300), "13": (1300, 300),
+    "00": (1140, 170), "01": (1133, 83), "02": (1439, 83), "03": (1625, 250),
+    "04": (1245, 146), "05": (1450, 130), "06": (1629, 236), "07": (1616, 102),
+    "08": (1250, 3), "09": (1017, 254), "10": (1050, 286), "11": (957, 225),
+    "12": (974, 274), "13": (961, 272),
 }
 """Each lesson's share of :data:`WORD_BUDGET`; tests/test_lessons.py checks the generated
 share of every lesson it runs."""
