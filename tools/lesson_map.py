@@ -143,7 +143,7 @@ def draw_graph(headers: list[dict], path: Path) -> Path:
     ax.set_xlim(-0.2, width + 0.2)
     ax.set_ylim(-len(rows) + 0.5, 0.5)
     ax.axis("off")
-    ax.set_title("Lessons and their prerequisites (an arrow points from a prerequisite)",
+    ax.set_title("Lessons and their prerequisites\n(an arrow points from a prerequisite)",
                  fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
