@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 QUICK_ENV := E2V_QUICK=1 PYVISTA_JUPYTER_BACKEND=static
 
-.PHONY: venv lab test test-all unit notebooks imports browser book book-check lint format bench data figures strip student clean
+.PHONY: venv lab test test-all unit notebooks imports browser book book-check lint format bench data real-data figures strip student clean
 
 venv: $(STAMP)
 
@@ -93,6 +93,16 @@ bench: $(STAMP)
 
 data: $(STAMP)
 	$(PY) -m e2vlib make-data --out data_small --preset small
+
+# The real objects (lab) as samples: download and unpack the Debian packages
+# under cache/real_objects (never installed), then build the catalogue's kept rows into
+# cache/real_objects/data (resumable; nothing there is committed: GPL / CC-BY-SA models).
+REAL_OBJECTS := $(PY) -m e2vlib.experiments.real_objects
+
+real-data: $(STAMP)
+	$(REAL_OBJECTS) download --cache cache/real_objects
+	$(REAL_OBJECTS) extract --cache cache/real_objects
+	$(REAL_OBJECTS) samples --cache cache/real_objects --out cache/real_objects/data
 
 figures: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m e2vlib figures --out docs/figures

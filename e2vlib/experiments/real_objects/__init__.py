@@ -17,10 +17,15 @@ rotation, parts removed, keep, split, what looking showed). The modules, each wi
 ``real_objects.catalogue``  the committed table: :func:`~catalogue.read_catalogue`,
                             :func:`~catalogue.check_catalogue`, the split
 ``real_objects.build``      joins candidates, the review and the duplicates into the table
+``real_objects.labels``     solid 32^3 labels of open, many-part meshes
+                            (:func:`~labels.solid_labels`)
+``real_objects.samples``    the kept rows as a dataset folder models train on
+                            (:func:`~samples.build_samples`, in ``cache/``)
 ``real_objects.__main__``   the recorded commands (download, extract, grids, sheets,
-                            catalogue)
+                            catalogue, samples)
 ==========================  ================================================================
 
-Nothing derived from the GPL or CC-BY-SA models (grids, sheets, meshes) leaves ``cache/``.
+Nothing derived from the GPL or CC-BY-SA models (grids, sheets, meshes, samples) leaves
+``cache/``.
 The core never imports this package.
 """

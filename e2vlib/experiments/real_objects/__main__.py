@@ -1,4 +1,4 @@
-"""The recorded commands that build the real-object catalogue (issue #38, stage 1).
+"""The recorded commands that build the real-object catalogue and samples (issue #38).
 
     python -m e2vlib.experiments.real_objects download --cache cache/real_objects
     python -m e2vlib.experiments.real_objects extract  --cache cache/real_objects
@@ -6,6 +6,8 @@
     python -m e2vlib.experiments.real_objects sheets   --cache cache/real_objects
     python -m e2vlib.experiments.real_objects review   --cache cache/real_objects
     python -m e2vlib.experiments.real_objects catalogue --cache cache/real_objects
+    python -m e2vlib.experiments.real_objects samples --cache cache/real_objects \
+        --out cache/real_objects/data
 
 ``download`` and ``extract`` fetch and unpack the Debian packages
 (:mod:`~e2vlib.experiments.real_objects.sources`); ``grids`` loads every candidate in our
@@ -16,12 +18,18 @@ while looking (``<cache>/review/*.txt``, one line per sheet cell) into
 ``<cache>/review.csv``; ``catalogue`` joins the candidates, the review (or, without
 ``review.csv``, the committed catalogue read back), the duplicates by geometry and the
 reviewed Sweet Home 3D rows into ``experiments/real_objects/catalogue.csv`` with its split.
-Rerun ``grids`` after the review changes a rotation or the parts to remove.
+Rerun ``grids`` after the review changes a rotation or the parts to remove. ``samples``
+(stage 2, :mod:`~e2vlib.experiments.real_objects.samples`) builds the catalogue's kept rows
+into a dataset folder models train on (resumable; ``make real-data`` runs download,
+extract and samples); ``download`` and ``extract`` also fetch the Sweet Home 3D packages
+its reviewed rows need (:data:`~e2vlib.experiments.real_objects.samples.EXTRA_PACKAGES`),
+when apt can.
 """
 
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -33,7 +41,24 @@ from e2vlib.experiments.real_objects.build import (
     review_from_notes,
     write_catalogue,
 )
-from e2vlib.experiments.real_objects.sources import download, extract, find_candidates
+from e2vlib.experiments.real_objects.samples import EXTRA_PACKAGES, build_samples
+from e2vlib.experiments.real_objects.sources import (
+    PACKAGES,
+    download,
+    extract,
+    find_candidates,
+)
+
+
+def _extras(cache: Path, step) -> None:
+    """Download or extract the Sweet Home 3D packages too; a failure only warns (the
+    samples step then skips their rows, saying so)."""
+    for name in EXTRA_PACKAGES:
+        try:
+            print(step(cache, [name]))
+        except (OSError, subprocess.CalledProcessError) as err:
+            print(f"{name}: {err}; its rows will be skipped by the samples step",
+                  file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -42,15 +67,21 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m e2vlib.experiments.real_objects",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("step", choices=["download", "extract", "candidates", "grids",
-                                         "sheets", "review", "catalogue"])
+                                         "sheets", "review", "catalogue", "samples"])
     parser.add_argument("--cache", type=Path, default=Path("cache/real_objects"))
-    parser.add_argument("--only", default=None, help="regex on candidate keys")
+    parser.add_argument("--only", default=None, help="regex on candidate keys (samples: ids)")
+    parser.add_argument("--out", type=Path, default=Path("cache/real_objects/data"),
+                        help="samples: the dataset folder")
+    parser.add_argument("--limit", type=int, default=None,
+                        help="samples: make at most this many samples this run")
     args = parser.parse_args(argv)
     start = time.monotonic()
     if args.step == "download":
-        print(download(args.cache))
+        print(download(args.cache, list(PACKAGES)))
+        _extras(args.cache, download)
     elif args.step == "extract":
-        print(extract(args.cache))
+        print(extract(args.cache, list(PACKAGES)))
+        _extras(args.cache, extract)
     elif args.step == "candidates":
         for c in find_candidates(args.cache):
             print(candidate_key(c), c.category, c.source, c.path, c.licence, sep=",")
@@ -62,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{review_from_notes(args.cache)} review rows in {args.cache / 'review.csv'}")
     elif args.step == "catalogue":
         write_catalogue(args.cache)
+    elif args.step == "samples":
+        build_samples(args.cache, args.out, only=args.only, limit=args.limit)
     print(f"{args.step}: {time.monotonic() - start:.0f} s", file=sys.stderr)
     return 0
 
