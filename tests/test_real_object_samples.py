@@ -1,4 +1,4 @@
-"""Real objects, stage 2 (issue #38): solid labels for open, many-part meshes, and the
+"""Real objects, stage 2: solid labels for open, many-part meshes, and the
 builder that turns catalogue rows into a dataset folder.
 
 The labels have known answers: a closed box gives exactly :func:`e2vlib.voxels.voxelize`'s

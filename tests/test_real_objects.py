@@ -1,4 +1,4 @@
-"""The real-object catalogue (issue #38): readers on hand-made fixtures, the catalogue checker,
+"""The real-object catalogue: readers on hand-made fixtures, the catalogue checker,
 the split, and the committed catalogue itself.
 
 No test needs the Debian packages or assimp: the readers run on tiny files written here, and

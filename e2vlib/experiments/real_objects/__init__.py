@@ -1,4 +1,4 @@
-"""Real objects of the paper's categories from Debian packages (issue #38): the catalogue.
+"""Real objects of the paper's categories from Debian packages: the catalogue.
 
 FlightGear's aircraft, boats, road vehicles and street lamps, TORCS's cars, UFO:AI's and
 OpenArena's guns, GL-117's aircraft, minetest's home decor and Sweet Home 3D's own

@@ -1,4 +1,4 @@
-"""The recorded commands that build the real-object catalogue and samples (issue #38).
+"""The recorded commands that build the real-object catalogue and samples.
 
     python -m e2vlib.experiments.real_objects download --cache cache/real_objects
     python -m e2vlib.experiments.real_objects extract  --cache cache/real_objects

@@ -1,4 +1,4 @@
-"""Solid 32^3 voxel labels for open, many-part meshes (issue #38, stage 2).
+"""Solid 32^3 voxel labels for open, many-part meshes.
 
 :func:`e2vlib.voxels.voxelize` decides what lies inside by winding numbers, which need
 faces turned consistently; almost no real model here is one closed, consistently turned

@@ -1,4 +1,4 @@
-"""The real objects as samples a model trains on (issue #38, stage 2).
+"""The real objects as samples a model trains on.
 
 :func:`build_samples` (:data:`SAMPLES_COMMAND`) turns every kept row of the committed
 catalogue (:func:`~e2vlib.experiments.real_objects.catalogue.read_catalogue`) into one sample

@@ -6,7 +6,7 @@ installed: installing pulls in Java and games) under ``<cache>/debs`` and ``<cac
 worth looking at (:data:`RULES`: which folders hold aircraft, boats, road vehicles, street
 lamps, furniture and guns), each with the category it is looked at for.
 
-Scored by nothing yet: the study of issue #38 will read ``experiments/real_objects/catalogue.csv``.
+Scored by nothing yet: the real-objects study will read ``experiments/real_objects/catalogue.csv``.
 """
 
 from __future__ import annotations
