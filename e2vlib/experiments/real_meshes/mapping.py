@@ -76,6 +76,24 @@ class MappedEntry:
     note: str
 
 
+def id_and_category_problems(row: dict, line: int, seen: set[str]) -> list[str]:
+    """What is wrong with a catalogue row's ``id`` and ``category`` (a plain lower-case id,
+    unique among ``seen``, which it joins, starting with a category of the paper's), each
+    naming ``line``; shared by this table and the real-object catalogue."""
+    rid, problems = row["id"], []
+    if not re.fullmatch(r"[a-z]+_[a-z0-9_]+", rid):
+        problems.append(f"line {line}: id {rid!r} is not a plain lower-case name")
+    if rid in seen:
+        problems.append(f"line {line}: duplicate id {rid!r}")
+    seen.add(rid)
+    if row["category"] not in paper.CATEGORIES:
+        problems.append(f"line {line}: category {row['category']!r} is not one of the "
+                        f"paper's ({', '.join(paper.CATEGORIES)})")
+    elif not rid.startswith(row["category"] + "_"):
+        problems.append(f"line {line}: id {rid!r} must start with its category")
+    return problems
+
+
 def check_mapping(rows: Iterable[dict], where: str = "catalogue.csv") -> list[MappedEntry]:
     """Check mapping rows (dicts of :data:`MAPPING_FIELDS`) and return them as
     :class:`MappedEntry`: ids unique plain names, categories the paper's, licences in
@@ -104,17 +122,7 @@ line 3: keep must be yes or no, got 'maybe'
         if absent:
             problems.append(f"line {line}: missing columns {absent}")
             continue
-        rid = row["id"]
-        if not re.fullmatch(r"[a-z]+_[a-z0-9_]+", rid):
-            problems.append(f"line {line}: id {rid!r} is not a plain lower-case name")
-        if rid in seen:
-            problems.append(f"line {line}: duplicate id {rid!r}")
-        seen.add(rid)
-        if row["category"] not in paper.CATEGORIES:
-            problems.append(f"line {line}: category {row['category']!r} is not one of the "
-                            f"paper's ({', '.join(paper.CATEGORIES)})")
-        elif not rid.startswith(row["category"] + "_"):
-            problems.append(f"line {line}: id {rid!r} must start with its category")
+        problems += id_and_category_problems(row, line, seen)
         if row["licence"] not in LICENCES:
             problems.append(f"line {line}: licence {row['licence']!r} is not one of "
                             f"{', '.join(LICENCES)}")

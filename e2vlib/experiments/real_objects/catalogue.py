@@ -23,8 +23,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from e2vlib import paper
 from e2vlib.experiments.real_meshes.catalogue import RealMeshError
+from e2vlib.experiments.real_meshes.mapping import id_and_category_problems
 from e2vlib.experiments.real_meshes.meshes import POSES
 
 CATALOGUE_CSV = Path(__file__).resolve().parents[3] / "experiments" / "real_objects" / \
@@ -102,17 +102,7 @@ line 3: note must start 'looked:' (say what looking at it showed)
         if absent:
             problems.append(f"line {line}: missing columns {absent}")
             continue
-        rid = row["id"]
-        if not re.fullmatch(r"[a-z]+_[a-z0-9_]+", rid):
-            problems.append(f"line {line}: id {rid!r} is not a plain lower-case name")
-        if rid in seen:
-            problems.append(f"line {line}: duplicate id {rid!r}")
-        seen.add(rid)
-        if row["category"] not in paper.CATEGORIES:
-            problems.append(f"line {line}: category {row['category']!r} is not one of the "
-                            f"paper's ({', '.join(paper.CATEGORIES)})")
-        elif not rid.startswith(row["category"] + "_"):
-            problems.append(f"line {line}: id {rid!r} must start with its category")
+        problems += id_and_category_problems(row, line, seen)
         if row["source"] not in SOURCES:
             problems.append(f"line {line}: unknown source {row['source']!r}")
         if not row["path"].strip():
