@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import trimesh
 
+from e2vlib.metrics import iou
+
 if TYPE_CHECKING:
     import PIL.Image
 
@@ -59,12 +61,6 @@ def pool(occ: np.ndarray, grid: int = DEDUP_GRID) -> np.ndarray:
     """
     k = occ.shape[0] // grid
     return occ.reshape(grid, k, grid, k, grid, k).any(axis=(1, 3, 5))
-
-
-def iou(a: np.ndarray, b: np.ndarray) -> float:
-    """Intersection over union of two boolean grids (1.0 for two empty ones)."""
-    union = np.logical_or(a, b).sum()
-    return 1.0 if union == 0 else float(np.logical_and(a, b).sum() / union)
 
 
 def duplicates(grids: dict[str, np.ndarray], categories: dict[str, str],

@@ -40,11 +40,10 @@ import time
 from collections import Counter
 from pathlib import Path
 
-import numpy as np
-
 from e2vlib import paper
 from e2vlib.experiments.real_objects.catalogue import CATALOGUE_CSV, RealObject, read_catalogue
 from e2vlib.experiments.real_objects.readers import GROUND_SQUARE, LIGHT_CONE
+from e2vlib.metrics import iou
 
 SAMPLES_COMMAND = ("python -m e2vlib.experiments.real_objects samples --cache cache/real_objects "
                    "--out cache/real_objects/data")
@@ -244,9 +243,7 @@ def make_sample(cache: str | os.PathLike, row: RealObject, out: str | os.PathLik
         record.update(found)
         sample = mesh_to_sample(mesh, config, seed=real_sample_seed(config.seed, row.id),
                                 renderer=render_orbit_cached)
-        union = np.logical_or(voxels, sample.voxels).sum()
-        record["voxelize_iou"] = round(float(np.logical_and(voxels, sample.voxels).sum()
-                                             / max(union, 1)), 4)
+        record["voxelize_iou"] = round(iou(voxels, sample.voxels), 4)
         save_sample(out / "samples" / f"{row.id}.npz", sample.frames, voxels,
                     len(sample.events))
     except Exception as err:  # recorded: one bad model (reader, assimp, limits) stops nothing
