@@ -8,6 +8,7 @@
     python -m e2vlib.experiments.real_objects catalogue --cache cache/real_objects
     python -m e2vlib.experiments.real_objects samples --cache cache/real_objects \
         --out cache/real_objects/data
+    python -m e2vlib.experiments.real_objects study --seeds 0 1 2 3 4
 
 ``download`` and ``extract`` fetch and unpack the Debian packages
 (:mod:`~e2vlib.experiments.real_objects.sources`); ``grids`` loads every candidate in our
@@ -23,7 +24,9 @@ Rerun ``grids`` after the review changes a rotation or the parts to remove. ``sa
 into a dataset folder models train on (resumable; ``make real-data`` runs download,
 extract and samples); ``download`` and ``extract`` also fetch the Sweet Home 3D packages
 its reviewed rows need (:data:`~e2vlib.experiments.real_objects.samples.EXTRA_PACKAGES`),
-when apt can.
+when apt can. ``study`` runs the ``real_objects`` study on those samples
+(:mod:`~e2vlib.experiments.real_objects.study`; resumable, one record per run;
+``--table`` prints the recorded table).
 """
 
 from __future__ import annotations
@@ -61,19 +64,48 @@ def _extras(cache: Path, step) -> None:
                   file=sys.stderr)
 
 
+def _study(args: argparse.Namespace, argv: list[str]) -> None:
+    """Run (or, with ``--table``, print) the ``real_objects`` study."""
+    import json
+
+    from e2vlib.experiments.real_objects import study
+
+    path = args.results / "real_objects.json"
+    if not args.table:
+        command = " ".join(["python -m e2vlib.experiments.real_objects", *argv])
+        path = study.run_real_objects(args.configs or study.MAIN, args.seeds, args.results,
+                                      args.out, quick=args.quick,
+                                      load_mesh=study.catalogue_mesh_loader(args.cache),
+                                      command=command)
+    results = json.loads(path.read_text())
+    for key in ("iou@0.3", "iou@val_threshold"):
+        print(study.format_table(results, key), end="\n\n")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one recorded step (``argv``: the command line after the module name); prints what
     it did and the seconds it took; returns the exit status (0)."""
     parser = argparse.ArgumentParser(prog="python -m e2vlib.experiments.real_objects",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("step", choices=["download", "extract", "candidates", "grids",
-                                         "sheets", "review", "catalogue", "samples"])
+                                         "sheets", "review", "catalogue", "samples",
+                                         "study"])
     parser.add_argument("--cache", type=Path, default=Path("cache/real_objects"))
     parser.add_argument("--only", default=None, help="regex on candidate keys (samples: ids)")
     parser.add_argument("--out", type=Path, default=Path("cache/real_objects/data"),
                         help="samples: the dataset folder")
     parser.add_argument("--limit", type=int, default=None,
                         help="samples: make at most this many samples this run")
+    parser.add_argument("--configs", nargs="+", default=None,
+                        help="study: configs to run (default: the four main ones)")
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4],
+                        help="study: seeds")
+    parser.add_argument("--results", type=Path, default=Path("experiments/results"),
+                        help="study: folder of real_objects.json")
+    parser.add_argument("--quick", action="store_true",
+                        help="study: one object per category and split, 32 px, 1 epoch")
+    parser.add_argument("--table", action="store_true",
+                        help="study: only print the recorded table")
     args = parser.parse_args(argv)
     start = time.monotonic()
     if args.step == "download":
@@ -95,6 +127,8 @@ def main(argv: list[str] | None = None) -> int:
         write_catalogue(args.cache)
     elif args.step == "samples":
         build_samples(args.cache, args.out, only=args.only, limit=args.limit)
+    elif args.step == "study":
+        _study(args, argv if argv is not None else sys.argv[1:])
     print(f"{args.step}: {time.monotonic() - start:.0f} s", file=sys.stderr)
     return 0
 
