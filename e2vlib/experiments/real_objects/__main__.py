@@ -9,6 +9,7 @@
     python -m e2vlib.experiments.real_objects samples --cache cache/real_objects \
         --out cache/real_objects/data
     python -m e2vlib.experiments.real_objects study --seeds 0 1 2 3 4
+    python -m e2vlib.experiments.real_objects ship --out data_small/real_objects
 
 ``download`` and ``extract`` fetch and unpack the Debian packages
 (:mod:`~e2vlib.experiments.real_objects.sources`); ``grids`` loads every candidate in our
@@ -26,7 +27,8 @@ extract and samples); ``download`` and ``extract`` also fetch the Sweet Home 3D 
 its reviewed rows need (:data:`~e2vlib.experiments.real_objects.samples.EXTRA_PACKAGES`),
 when apt can. ``study`` runs the ``real_objects`` study on those samples
 (:mod:`~e2vlib.experiments.real_objects.study`; resumable, one record per run;
-``--table`` prints the recorded table).
+``--table`` prints the recorded table); ``ship`` copies the CC0 / CC-BY rows' samples into
+a committed folder with their attribution (:mod:`~e2vlib.experiments.real_objects.ship`).
 """
 
 from __future__ import annotations
@@ -89,11 +91,12 @@ def main(argv: list[str] | None = None) -> int:
                                      description=__doc__.split("\n")[0])
     parser.add_argument("step", choices=["download", "extract", "candidates", "grids",
                                          "sheets", "review", "catalogue", "samples",
-                                         "study"])
+                                         "study", "ship"])
     parser.add_argument("--cache", type=Path, default=Path("cache/real_objects"))
     parser.add_argument("--only", default=None, help="regex on candidate keys (samples: ids)")
-    parser.add_argument("--out", type=Path, default=Path("cache/real_objects/data"),
-                        help="samples: the dataset folder")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="samples: the dataset folder (default cache/real_objects/data); "
+                        "ship: the folder shipped (default data_small/real_objects)")
     parser.add_argument("--limit", type=int, default=None,
                         help="samples: make at most this many samples this run")
     parser.add_argument("--configs", nargs="+", default=None,
@@ -107,6 +110,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--table", action="store_true",
                         help="study: only print the recorded table")
     args = parser.parse_args(argv)
+    data = Path("cache/real_objects/data")
+    if args.out is None and args.step != "ship":
+        args.out = data
     start = time.monotonic()
     if args.step == "download":
         print(download(args.cache, list(PACKAGES)))
@@ -127,6 +133,10 @@ def main(argv: list[str] | None = None) -> int:
         write_catalogue(args.cache)
     elif args.step == "samples":
         build_samples(args.cache, args.out, only=args.only, limit=args.limit)
+    elif args.step == "ship":
+        from e2vlib.experiments.real_objects.ship import SHIP_DIR, ship_samples
+
+        print(ship_samples(data, args.out or Path(SHIP_DIR)))
     elif args.step == "study":
         _study(args, argv if argv is not None else sys.argv[1:])
     print(f"{args.step}: {time.monotonic() - start:.0f} s", file=sys.stderr)
