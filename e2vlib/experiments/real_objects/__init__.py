@@ -21,11 +21,15 @@ rotation, parts removed, keep, split, what looking showed). The modules, each wi
                             (:func:`~labels.solid_labels`)
 ``real_objects.samples``    the kept rows as a dataset folder models train on
                             (:func:`~samples.build_samples`, in ``cache/``)
+``real_objects.study``      the ``real_objects`` study: four ways to train, the learning
+                            curve, the hull with poses (:func:`~study.run_real_objects`)
+``real_objects.ship``       the CC0 / CC-BY rows' samples with their credits, committed as
+                            ``data_small/real_objects`` (:func:`~ship.ship_samples`)
 ``real_objects.__main__``   the recorded commands (download, extract, grids, sheets,
-                            catalogue, samples)
+                            catalogue, samples, study, ship)
 ==========================  ================================================================
 
-Nothing derived from the GPL or CC-BY-SA models (grids, sheets, meshes, samples) leaves
-``cache/``.
+Nothing derived from the GPL or CC-BY-SA models (grids, sheets, meshes, samples, trained
+weights) leaves ``cache/``.
 The core never imports this package.
 """
