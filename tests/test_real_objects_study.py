@@ -196,3 +196,14 @@ def test_a_row_that_is_not_built_is_refused(tmp_path):
         ship.ship_samples(tmp_path / "data", tmp_path / "out")
     assert not (tmp_path / "out").exists()  # nothing written before the refusal
     assert np.all([r.licence in ship.SHIPPABLE for r in ship.shippable_rows()])
+
+
+def test_no_tracked_file_is_named_after_a_gpl_or_cc_by_sa_object():
+    """Samples, meshes, grids and weights are named by the row id: none of a row that may
+    not ship is tracked by git."""
+    closed = {r.id for r in cat.read_catalogue(kept_only=False)} - {
+        r.id for r in ship.shippable_rows(cat.read_catalogue(kept_only=False))}
+    tracked = subprocess.run(["git", "ls-files"], cwd=REPO, capture_output=True, text=True,
+                             check=True).stdout.split()
+    named = [t for t in tracked if t.rsplit("/", 1)[-1].split(".")[0] in closed]
+    assert closed and named == []
