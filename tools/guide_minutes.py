@@ -56,6 +56,7 @@ CORE = {
     "11": ["1", "2", "3", "4"],
     "12": ["1", "3", "4"],
     "13": ["1", "2", "3", "4", "5!"],
+    "14": ["1", "3", "4"],
 }
 """Each lesson's core sections (the rest is optional), as the guide lists them."""
 
