@@ -103,8 +103,9 @@ def summarize_real(runs: Sequence[dict], metric: str = "iou@0.3",
     return out
 
 
-def _hull(mesh, config) -> np.ndarray:
-    """Visual hull of ``mesh`` from its 120 grey video frames at ``config.resolution`` px.
+def mesh_hull(mesh, resolution: int = 128, anti_aliasing: str = "ssaa") -> np.ndarray:
+    """Visual hull (bool ``(32, 32, 32)``) of ``mesh`` carved from its 120 grey orbit frames
+    at ``resolution`` px with the camera poses known.
 
     The video is rendered at the paper's 240 fps without the events' oversampling: its 120
     frames are the ones the geometry study keeps of the oversampled video (every
@@ -114,11 +115,9 @@ def _hull(mesh, config) -> np.ndarray:
     from e2vlib.render import orbit_cameras, render_orbit
 
     video, _ = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
-                            resolution=config.resolution, oversample=1,
-                            anti_aliasing=config.anti_aliasing)
+                            resolution=resolution, oversample=1, anti_aliasing=anti_aliasing)
     silhouettes = geometry.silhouettes_from_video(video)
-    return geometry.visual_hull(silhouettes, orbit_cameras(paper.N_VIDEO_FRAMES),
-                                config.resolution)
+    return geometry.visual_hull(silhouettes, orbit_cameras(paper.N_VIDEO_FRAMES), resolution)
 
 
 def checkpoint_predictions(path: str, frames, val) -> tuple[np.ndarray, float, str]:
@@ -255,8 +254,10 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
                                  f"{data} was built from")
             mapped, entry = meshes[sid]
             started = time.perf_counter()
-            hull = _hull(load_entry_mesh(entry, folder or source.get("folder", FURNITURE_DIR),
-                                         pose=mapped.pose), config)
+            hull = mesh_hull(load_entry_mesh(entry, folder or source.get("folder",
+                                                                         FURNITURE_DIR),
+                                             pose=mapped.pose),
+                             config.resolution, config.anti_aliasing)
             record["seconds"]["visual_hull"] = round(time.perf_counter() - started, 2)
             scores["visual_hull"] = score_occupancy(hull, label, n_points)
         if "mean_shape" not in scores:
