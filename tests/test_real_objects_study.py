@@ -1,7 +1,7 @@
 """The real_objects study and the real objects that ship.
 
 The summary and the paired comparison have hand-computed answers. The study runs end to end
-in quick mode on the shipped real objects (``data_small/real_objects``, one object per
+(``slow``: about two minutes) in quick mode on the shipped real objects (``data_small/real_objects``, one object per
 category and split, 32 px, one epoch a run) with a box standing in for every test object's
 mesh, so no Debian package is needed. The shipped folder holds only CC0 / CC-BY rows with
 their credits, and rebuilds byte for byte from its own samples.
@@ -96,6 +96,7 @@ def quick_study(tmp_path_factory):
     return out, json.loads(path.read_text()), asked
 
 
+@pytest.mark.slow
 def test_quick_study_records_every_config_and_the_baselines(quick_study):
     out, results, asked = quick_study
     test = E2VDataset(SHIPPED, "test")
@@ -122,6 +123,7 @@ def test_quick_study_records_every_config_and_the_baselines(quick_study):
     assert "visual_hull" in study.format_table(results)
 
 
+@pytest.mark.slow
 def test_quick_study_resumes_without_training_again(quick_study, monkeypatch):
     out, results, _ = quick_study
 
