@@ -1,10 +1,11 @@
 """The real_objects study and the real objects that ship.
 
 The summary and the paired comparison have hand-computed answers. The study runs end to end
-(``slow``: about two minutes) in quick mode on the shipped real objects (``data_small/real_objects``, one object per
-category and split, 32 px, one epoch a run) with a box standing in for every test object's
-mesh, so no Debian package is needed. The shipped folder holds only CC0 / CC-BY rows with
-their credits, and rebuilds byte for byte from its own samples.
+(``slow``: about two minutes) in quick mode on the shipped real objects
+(``data_small/real_objects``, one object per category and split, 32 px, one epoch a run)
+with a box standing in for every test object's mesh, so no Debian package is needed. The
+shipped folder holds only CC0 / CC-BY rows with their credits, and rebuilds byte for byte
+from its own samples.
 """
 
 import csv
