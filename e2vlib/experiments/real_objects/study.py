@@ -274,13 +274,24 @@ def score_baselines(sets: dict, load_mesh: Callable[[str], object],
 
 def catalogue_mesh_loader(cache: str | os.PathLike = "cache/real_objects"
                           ) -> Callable[[str], object]:
-    """``load_mesh(id)``: a catalogue row's model in our frame, as its sample was made."""
+    """``load_mesh(id)``: a catalogue row's model in our frame, as its sample was made. The
+    catalogue and the Sweet Home 3D libraries are read at the first call only (a study whose
+    baselines are recorded never calls it)."""
+    from functools import cache as once
+
     from e2vlib.experiments.real_objects.catalogue import read_catalogue
     from e2vlib.experiments.real_objects.samples import load_row_mesh, sh3d_entries
 
-    rows = {row.id: row for row in read_catalogue()}
-    sh3d, _ = sh3d_entries(cache, list(rows.values()))
-    return lambda sid: load_row_mesh(cache, rows[sid], sh3d)
+    @once
+    def catalogue() -> tuple[dict, dict]:
+        rows = {row.id: row for row in read_catalogue()}
+        return rows, sh3d_entries(cache, list(rows.values()))[0]
+
+    def load_mesh(sid: str):
+        rows, sh3d = catalogue()
+        return load_row_mesh(cache, rows[sid], sh3d)
+
+    return load_mesh
 
 
 def run_real_objects(configs: Sequence[str] = MAIN, seeds: Sequence[int] = (0, 1, 2, 3, 4),
