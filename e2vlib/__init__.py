@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,412 lines)::
+Module map (``python tools/module_map.py --write``; 24,416 lines)::
 
-    lines per band: core 14,448 · speed and scale 1,197 · lab 7,431 · command line 1,336
+    lines per band: core 14,452 · speed and scale 1,197 · lab 7,431 · command line 1,336
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -60,7 +60,7 @@ Module map (``python tools/module_map.py --write``; 24,412 lines)::
       summary.py           182  Size and memory of an E2V
     noise.py               215  Sensor noise of a DVS pixel, added to the events of simulate
     orbit.py               444  The camera orbit's clock and geometry, numpy only
-    paper.py               287  The paper's facts as named constants, and our documented ...
+    paper.py               291  The paper's facts as named constants, and our documented ...
     render.py              260  Render the paper's spiral camera orbit around an object into ...
     shapes/               3028  Objects to reconstruct
       builders.py          128  The category -> builder table, make_shape (the procedural ...

@@ -38,6 +38,10 @@ VIDEO_FPS: int = 240
 N_VIDEO_FRAMES: int = 120
 """Rendered video frames per orbit (Sec. IV: 240 fps for 0.5 s)."""
 
+EVENT_SIMULATOR: str = "Vid2E"
+"""How the paper turns its rendered video into events (Sec. IV: the Video to Events method of
+Gehrig et al., CVPR 2020); its settings (contrast threshold, noise) are not given."""
+
 FOCAL_LENGTH_MM: float = 80.0
 """Focal length of the virtual camera (Sec. IV: 80 mm). The sensor width is not given."""
 
