@@ -46,7 +46,7 @@ from e2vlib.experiments.real_objects.build import (
     review_from_notes,
     write_catalogue,
 )
-from e2vlib.experiments.real_objects.samples import EXTRA_PACKAGES, build_samples
+from e2vlib.experiments.real_objects.samples import DATA_DIR, EXTRA_PACKAGES, build_samples
 from e2vlib.experiments.real_objects.sources import (
     PACKAGES,
     download,
@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--table", action="store_true",
                         help="study: only print the recorded table")
     args = parser.parse_args(argv)
-    data = Path("cache/real_objects/data")
+    data = Path(DATA_DIR)
     if args.out is None and args.step != "ship":
         args.out = data
     start = time.monotonic()

@@ -45,8 +45,10 @@ from e2vlib.experiments.real_objects.catalogue import CATALOGUE_CSV, RealObject,
 from e2vlib.experiments.real_objects.readers import GROUND_SQUARE, LIGHT_CONE
 from e2vlib.metrics import iou
 
+DATA_DIR = "cache/real_objects/data"
+"""Where the samples are built: the real objects as a dataset folder (never committed)."""
 SAMPLES_COMMAND = ("python -m e2vlib.experiments.real_objects samples --cache cache/real_objects "
-                   "--out cache/real_objects/data")
+                   f"--out {DATA_DIR}")
 """The recorded command that builds the samples (after ``download`` and ``extract``)."""
 EXTRA_PACKAGES = ("sweethome3d-furniture", "crrcsim-data")
 """Debian packages of the reviewed Sweet Home 3D / crrcsim rows

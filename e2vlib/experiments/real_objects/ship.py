@@ -15,11 +15,13 @@ import csv
 import json
 import os
 import shutil
+from collections import Counter
 from pathlib import Path
 
 from e2vlib import paper
 from e2vlib.data.manifest import MANIFEST_FIELDS
 from e2vlib.experiments.real_objects.catalogue import CATALOGUE_CSV, RealObject, read_catalogue
+from e2vlib.experiments.real_objects.samples import DATA_DIR
 from e2vlib.files import atomic_path
 
 SHIPPABLE = ("CC0-1.0", "CC-BY-3.0", "CC-BY-3.0-US")
@@ -64,7 +66,7 @@ def _attribution(rows: list[RealObject], mapping: dict[str, dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def ship_samples(data: str | os.PathLike = "cache/real_objects/data",
+def ship_samples(data: str | os.PathLike = DATA_DIR,
                  out: str | os.PathLike = SHIP_DIR,
                  catalogue: str | os.PathLike = CATALOGUE_CSV) -> dict[str, int]:
     """Copy the shippable rows' samples from ``data`` into ``out`` with a manifest, the
@@ -104,7 +106,4 @@ def ship_samples(data: str | os.PathLike = "cache/real_objects/data",
             writer.writerow(built[row.id])
     with atomic_path(out / "ATTRIBUTION.md") as partial:
         partial.write_text(_attribution(rows, mapping))
-    counts: dict[str, int] = {}
-    for row in rows:
-        counts[row.split] = counts.get(row.split, 0) + 1
-    return counts
+    return dict(Counter(row.split for row in rows))

@@ -42,11 +42,10 @@ import numpy as np
 from e2vlib import metrics, paper
 from e2vlib.experiments.protocol import Protocol, first_per_category
 from e2vlib.experiments.provenance import cpu_name, git_commit
+from e2vlib.experiments.real_objects.samples import DATA_DIR
 from e2vlib.experiments.real_study import mesh_hull
 from e2vlib.experiments.runner import RUN_KEY, best_threshold, read_results, update_results
 
-REAL_DATA = "cache/real_objects/data"
-"""The real objects as a dataset (``make real-data``; never committed)."""
 CHECKPOINTS = "cache/real_objects/checkpoints"
 """Where each run's best checkpoint is kept (the fine-tuned runs start from these)."""
 PROCEDURAL_SEED0 = "data_small/checkpoints/e2v_tiny.pt"
@@ -126,7 +125,7 @@ def join(parts: Sequence):
                      [i for p in parts for i in p.ids], parts[0].config)
 
 
-def load_sets(real: str | os.PathLike = REAL_DATA, quick: bool = False) -> dict:
+def load_sets(real: str | os.PathLike = DATA_DIR, quick: bool = False) -> dict:
     """``{"procedural": {split: TensorSet}, "real": {split: TensorSet}}`` in memory."""
     from e2vlib.experiments.loader import load_split
 
@@ -296,7 +295,7 @@ def catalogue_mesh_loader(cache: str | os.PathLike = "cache/real_objects"
 
 def run_real_objects(configs: Sequence[str] = MAIN, seeds: Sequence[int] = (0, 1, 2, 3, 4),
                      out: str | os.PathLike = "experiments/results",
-                     real: str | os.PathLike = REAL_DATA,
+                     real: str | os.PathLike = DATA_DIR,
                      checkpoints: str | os.PathLike = CHECKPOINTS, quick: bool = False,
                      baselines: bool = True, load_mesh: Callable | None = None,
                      command: str = COMMAND, progress: bool = True) -> Path:
@@ -475,13 +474,11 @@ def plot_real_objects(results: dict, key: str = "iou@val_threshold"):
             points.append((n, summary[name]))
     if points:
         xs = [p[0] for p in points]
-        ys = [p[1]["mean"] for p in points]
-        err = [[y - (p[1]["ci95"][0] if p[1]["ci95"][0] == p[1]["ci95"][0] else y)
-                for y, p in zip(ys, points, strict=True)],
-               [(p[1]["ci95"][1] if p[1]["ci95"][1] == p[1]["ci95"][1] else y) - y
-                for y, p in zip(ys, points, strict=True)]]
-        right.errorbar(xs, ys, yerr=err, fmt="o-", color="C0", capsize=4,
-                       label="procedural, then fine-tuned")
+        ys = np.array([p[1]["mean"] for p in points])
+        bounds = np.array([p[1]["ci95"] for p in points], dtype=float)
+        bounds = np.where(np.isnan(bounds), ys[:, None], bounds)  # one seed: no interval
+        right.errorbar(xs, ys, yerr=[ys - bounds[:, 0], bounds[:, 1] - ys], fmt="o-", color="C0",
+                       capsize=4, label="procedural, then fine-tuned")
     if hull is not None:
         right.axhline(hull, ls="--", color="0.4", label="visual hull with poses")
     right.set_xlabel("real training objects")
