@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,414 lines)::
+Module map (``python tools/module_map.py --write``; 24,664 lines)::
 
-    lines per band: core 14,452 · speed and scale 1,197 · lab 7,429 · command line 1,336
+    lines per band: core 14,702 · speed and scale 1,197 · lab 7,429 · command line 1,336
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -43,20 +43,21 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
     events.py              325  Event streams as numpy structured arrays, and their validation
     files.py               167  Crash-safe file writing
     frames.py              383  Event representations
-    geometry.py            393  Geometry baselines without learning
+    geometry.py            495  Geometry baselines without learning
     inputs/                493  Model inputs
       representations.py   306  Model inputs from events
       tensors.py           148  A split held in memory
     io.py                  610  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1852  The E2V model
+    model/                2000  The E2V model
       checkpoint.py        373  E2V checkpoint files
-      config.py            287  E2V's configuration
+      config.py            321  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          274  E2V's encoders
       integrity.py         235  Is a checkpoint intact
-      networks.py          251  The E2V network
+      lifting.py            91  The event frames lifted into the grid inside a network
+      networks.py          270  The E2V network
       summary.py           182  Size and memory of an E2V
     noise.py               215  Sensor noise of a DVS pixel, added to the events of simulate
     orbit.py               444  The camera orbit's clock and geometry, numpy only

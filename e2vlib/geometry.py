@@ -31,6 +31,13 @@ up, ``project_points``: pixel ``(column, row)`` centres at integers, row 0 at th
 :mod:`e2vlib.voxels` (grid ``[i, j, k] = (x, y, z)`` over ``[-0.5, 0.5]^3``, voxel ``i``
 centred at ``-0.5 + (i + 0.5) / grid``), so the results compare directly with the dataset's
 labels; :func:`score_occupancy` scores them as the learned model is scored.
+
+Lifting (:func:`lifting_table`, :func:`lift_frames`) is the same back-projection written for
+a learner: each voxel centre is projected once into every event frame of the known orbit
+(the table of pixel indices, made once per orbit and frame size), and then lifting a stack
+of frames is one look-up per voxel and frame, summarised as two channels (:data:`LIFTED_CHANNELS`):
+the silhouette vote of event carving and the raw event-ray share. A hybrid model reads them
+beside the frames (``E2VConfig.lift``; lesson 15).
 """
 
 from __future__ import annotations
@@ -334,6 +341,100 @@ def event_ray_density(
     return frames_ray_density(frames, cameras, grid, fill_frames, merge_frames)
 
 
+# --- lifting: the event frames back-projected into the grid, for a learner ------------------
+
+LIFTED_CHANNELS = ("silhouette_vote", "event_rays")
+"""The channels of :func:`lift_frames`: per voxel, the share of event frames whose silhouette
+estimate holds its centre (event carving's vote, :func:`frames_ray_density`), and the share
+whose raw event pixels it hits (the EMVS-style ray count, ``fill_frames=False``)."""
+
+
+def window_centre_cameras(n_frames: int = paper.N_EVENT_FRAMES, dt_us: int = paper.DT_US,
+                          t0_us: int = 0) -> np.ndarray:
+    """Camera ``(n_frames, 3)`` (m) at the middle of each event window ``t0 + (k + 1/2) dt``.
+
+    Windows run on the orbit's clock (``t0_us = 0``: the first video frame), as the stored
+    frames of a dataset do; the cameras are :func:`orbit_camera_at` of the window centres,
+    the ones :func:`event_ray_density` uses.
+
+    Examples
+    --------
+    >>> window_centre_cameras(100, 5000).shape
+    (100, 3)
+    """
+    n = _check_int("n_frames", n_frames, 1)
+    dt = _check_int("dt_us", dt_us, 1)
+    return orbit_camera_at(t0_us + np.arange(n, dtype=np.int64) * dt + dt // 2)
+
+
+def lifting_table(n_frames: int = paper.N_EVENT_FRAMES, dt_us: int = paper.DT_US,
+                  resolution: int = paper.FRAME_SIZE_PX, grid: int = paper.GRID_SIDE,
+                  t0_us: int = 0) -> np.ndarray:
+    """Where each voxel centre lands in each event frame: ``(n_frames, grid**3)`` int32.
+
+    Entry ``[k, v]`` is the flat pixel index ``row * resolution + column`` of voxel ``v``'s
+    centre (:func:`sample_points` order, ``[i, j, k]`` of the grid) seen from the camera of
+    frame ``k`` (:func:`window_centre_cameras`), the nearest pixel of a ``resolution`` px
+    square frame; ``-1`` where the centre falls outside the frame. The orbit is the same
+    for every sample, so the table is made once and serves every stack of frames.
+
+    Examples
+    --------
+    >>> table = lifting_table(n_frames=2, resolution=16, grid=4)
+    >>> table.shape, table.dtype, int(table.min()) >= 0  # every centre is in view
+    ((2, 64), dtype('int32'), True)
+    """
+    n = _check_int("n_frames", n_frames, 1)
+    res = _check_int("resolution", resolution, 1)
+    points = sample_points(_check_int("grid", grid, 1))
+    table = np.full((n, len(points)), -1, dtype=np.int32)
+    for k, camera in enumerate(window_centre_cameras(n, dt_us, t0_us)):
+        col, row = np.rint(project_points(points, camera, res)).astype(np.int64).T
+        inside = (col >= 0) & (col < res) & (row >= 0) & (row < res)
+        table[k, inside] = row[inside] * res + col[inside]
+    return table
+
+
+def lift_frames(frames: ArrayLike, table: np.ndarray,
+                merge_frames: int = MERGE_FRAMES) -> np.ndarray:
+    """Binary event frames ``(n, H, W)`` lifted into the grid: ``(2, g, g, g)`` float32.
+
+    ``table``: :func:`lifting_table` for these frames' orbit, frame count and size. For
+    each channel of :data:`LIFTED_CHANNELS` the frames become images (silhouette estimates,
+    :func:`silhouettes_from_events`, then the raw event pixels), every voxel looks up its
+    pixel in every image, and the channel is the share of the images with any set pixel
+    that hold it. A voxel outside a frame counts as held (that frame cannot carve it), as
+    in :func:`frames_ray_density`, whose result each channel equals.
+
+    Examples
+    --------
+    >>> frames = np.zeros((2, 16, 16), bool)
+    >>> frames[0, :, :8] = True  # events over the left half; frame 1 has none
+    >>> lifted = lift_frames(frames, lifting_table(n_frames=2, resolution=16, grid=4))
+    >>> lifted.shape, float(lifted[1, :2].min()), float(lifted[1, 2:].max())  # raw rays
+    ((2, 4, 4, 4), 1.0, 0.0)
+    """
+    masks = _check_masks("frames", frames, None)
+    n, height, width = masks.shape
+    index = np.asarray(table)
+    if index.ndim != 2 or index.shape[0] != n or round(index.shape[1] ** (1 / 3)) ** 3 != \
+            index.shape[1] or height != width or index.max(initial=-1) >= height * width:
+        raise ValueError(f"table {index.shape} does not fit {n} frames of {height} x {width} "
+                         "px; make it with lifting_table(n_frames, dt_us, resolution)")
+    grid = round(index.shape[1] ** (1 / 3))
+    pixels = height * width + 1  # one extra pixel per frame, always set: outside the frame
+    index = np.where(index < 0, pixels - 1, index)  # carves nothing
+    index = index + pixels * np.arange(n)[:, None]  # into the frames laid end to end
+    channels = []
+    for images in (silhouettes_from_events(masks, merge_frames), masks):
+        flat = images.reshape(n, -1)
+        padded = np.concatenate([flat, np.ones((n, 1), dtype=bool)], axis=1)
+        held = padded.ravel().take(index)  # (n, grid**3): the pixel of every voxel and frame
+        used = flat.any(axis=1)  # frames without events say nothing
+        channels.append(held[used].sum(axis=0) / max(int(used.sum()), 1))
+    return np.stack(channels).reshape(2, grid, grid, grid).astype(np.float32)
+
+
 def fill_solid(density: ArrayLike, threshold: float = EVENT_VOTE_THRESHOLD) -> np.ndarray:
     """Solid ``bool`` grid from occupancy evidence: ``density >= threshold``, holes filled.
 
@@ -387,7 +488,8 @@ def score_occupancy(occupancy: ArrayLike, label: ArrayLike,
 
 
 __all__ = [
-    "EVENT_VOTE_THRESHOLD", "MERGE_FRAMES", "SILHOUETTE_TOLERANCE", "event_ray_density",
-    "fill_solid", "frames_ray_density", "orbit_camera_at", "sample_points", "score_occupancy",
-    "silhouettes_from_events", "silhouettes_from_video", "visual_hull",
+    "EVENT_VOTE_THRESHOLD", "LIFTED_CHANNELS", "MERGE_FRAMES", "SILHOUETTE_TOLERANCE",
+    "event_ray_density", "fill_solid", "frames_ray_density", "lift_frames", "lifting_table",
+    "orbit_camera_at", "sample_points", "score_occupancy", "silhouettes_from_events",
+    "silhouettes_from_video", "visual_hull", "window_centre_cameras",
 ]

@@ -22,6 +22,9 @@ modules, each with one job:
                            and :class:`Frames2dGRUEncoder` (a GRU over time)
 ``model.decoder``          features -> voxel features: :class:`Bridge` (to the 32^3
                            hidden volume), :class:`UNetDecoder` (Pix2Vox++-like)
+``model.lifting``          a hybrid's second input: :class:`Lifting` (the frames
+                           back-projected through the known orbit, as
+                           :func:`e2vlib.geometry.lift_frames`) and :class:`LiftStem`
 ``model.networks``         the whole network: :class:`E2V`, :func:`build_e2v`,
                            :func:`count_parameters`
 ``model.integrity``        is a checkpoint intact: :func:`weights_digest`,
@@ -61,7 +64,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "slim_checkpoint",
         ],
         "config": [
-            "BOTTLENECKS", "BRIDGES", "ENCODERS", "GRID_SIDE", "NORMS", "PAPER_PARAMETERS",
+            "BOTTLENECKS", "BRIDGES", "ENCODERS", "GRID_SIDE", "LIFTS", "NORMS", "PAPER_PARAMETERS",
             "PRESETS", "RESNET_LAYERS", "VOXEL_RESOLUTION", "E2VConfig",
         ],
         "decoder": ["Bridge", "UNetDecoder"],
@@ -72,6 +75,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
             "DIGEST_KEY", "MAX_PARAMETERS", "CheckpointError", "check_state_matches",
             "expected_state", "verify_weights", "weights_digest",
         ],
+        "lifting": ["LiftStem", "Lifting"],
         "networks": ["E2V", "build_e2v", "count_parameters"],
         "summary": [
             "activation_bytes", "format_layer_table", "layer_table", "parameter_breakdown",

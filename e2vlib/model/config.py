@@ -41,6 +41,10 @@ ENCODERS = ("resnet3d", "frames2d", "frames2d_gru")
 BRIDGES = ("reshape", "interp", "fc")
 BOTTLENECKS = ("fc", "conv", "none")
 NORMS = ("batch", "group")
+LIFTS = ("none", "early", "late", "alone")
+"""Where a hybrid's lifted volume (:class:`e2vlib.model.lifting.Lifting`) enters: nowhere
+(E2V), at the decoder's input beside the bridge's hidden volume, before the head beside the
+decoder's output, or alone (no encoder: the lifted volume through the 3D UNet)."""
 
 
 # --------------------------------------------------------------------------- config
@@ -75,6 +79,12 @@ class E2VConfig:
       AdamW its output can move in proportion to the input's size (1,024 values at 64 px,
       4,096 at 128 px); normalised, its scale stays put (experiments/collapse_probe.py).
       Stored as False with the other bridges.
+    - ``lift``: one of :data:`LIFTS`. A hybrid also reads the frames lifted into the grid
+      through the known orbit (two channels, :data:`e2vlib.geometry.LIFTED_CHANNELS`),
+      made ``lift_width`` channels by one 3x3x3 convolution. ``lift_dt_us``: the window
+      length (us) of the input frames on the orbit's clock, which fixes the camera of
+      each frame (frame ``k`` is seen at ``(k + 1/2) dt``). Both are stored as their
+      defaults when ``lift="none"``; a hybrid takes one-channel square frames.
     - ``decoder_widths``: channels of the decoder's down blocks (each halves the grid).
     - ``bottleneck``: ``"fc"`` (two linear layers through ``bottleneck_features``, as in
       Pix2Vox++), ``"conv"`` (one 3x3x3 conv) or ``"none"``.
@@ -128,6 +138,9 @@ class E2VConfig:
     gru_hidden: int = 256
     gru_pool: int = 1
     bridge_norm: bool = False
+    lift: str = "none"
+    lift_width: int = 8
+    lift_dt_us: int = paper.DT_US
 
     def __post_init__(self) -> None:
         # Accept lists (a config read back from JSON or a checkpoint) and store tuples.
@@ -139,6 +152,10 @@ class E2VConfig:
                     object.__setattr__(self, f.name, f.default)
         if self.bridge != "fc":  # only the fully connected bridge has an unnormalised output
             object.__setattr__(self, "bridge_norm", False)
+        if self.lift == "none":  # unused: keep the defaults, as for the GRU fields
+            for f in fields(self):
+                if f.name in _LIFT_FIELDS:
+                    object.__setattr__(self, f.name, f.default)
         problems = []
         if len(self.input_shape) != 3 or min(self.input_shape) < 1:
             problems.append(
@@ -153,8 +170,15 @@ class E2VConfig:
         _check_choice(problems, "bridge", self.bridge, BRIDGES)
         _check_choice(problems, "bottleneck", self.bottleneck, BOTTLENECKS)
         _check_choice(problems, "norm", self.norm, NORMS)
+        _check_choice(problems, "lift", self.lift, LIFTS)
+        if self.lift != "none" and (self.in_channels != 1 or len(self.input_shape) != 3
+                                    or self.input_shape[1:2] != self.input_shape[2:3]):
+            problems.append("a hybrid (lift other than 'none') takes one-channel square "
+                            f"frames, got in_channels={self.in_channels}, "
+                            f"input_shape={self.input_shape}")
         for name in ("base_width", "stem_kernel", "stem_stride", "hidden_channels", "seed_size",
-                     "bottleneck_features", "in_channels", "gru_hidden", "gru_pool"):
+                     "bottleneck_features", "in_channels", "gru_hidden", "gru_pool",
+                     "lift_width", "lift_dt_us"):
             if int(getattr(self, name)) < 1:
                 problems.append(f"{name} must be >= 1, got {getattr(self, name)}")
         if self.stem_kernel % 2 == 0:
@@ -211,6 +235,8 @@ class E2VConfig:
 
 _GRU_FIELDS = ("gru_hidden", "gru_pool")
 """Fields only ``encoder="frames2d_gru"`` uses."""
+_LIFT_FIELDS = ("lift_width", "lift_dt_us")
+"""Fields only a hybrid (``lift`` other than ``"none"``) uses."""
 
 
 def _check_choice(problems: list[str], name: str, value: object, choices: tuple) -> None:
@@ -284,4 +310,12 @@ PRESETS["tiny_gru"] = replace(PRESETS["tiny"], encoder="frames2d_gru", gru_hidde
 # 8 more parameters: the norm's scale and shift of 4 channels.
 PRESETS["tiny_norm"] = replace(PRESETS["tiny"], bridge_norm=True)
 PRESETS["tiny_gru_norm"] = replace(PRESETS["tiny_gru"], bridge_norm=True)
+# Hybrids: tiny_norm (the capstone's best recipe's preset) that also reads the frames lifted
+# through the known orbit (e2vlib.geometry.lift_frames; lesson 15), in three places:
+# at the decoder's input beside the bridge's 4 hidden channels (8 + 4 = 12 channels on the
+# 32^3 grid), before the head beside the decoder's output, or alone through the same 3D
+# UNet with no encoder (the event frames reach it only through the lifting).
+PRESETS["hybrid_early"] = replace(PRESETS["tiny_norm"], lift="early")
+PRESETS["hybrid_late"] = replace(PRESETS["tiny_norm"], lift="late")
+PRESETS["lifted_unet"] = replace(PRESETS["tiny_norm"], lift="alone")
 """Named configurations for :func:`build_e2v`."""

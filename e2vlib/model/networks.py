@@ -56,6 +56,7 @@ from torch import nn
 from e2vlib.model.config import PRESETS, E2VConfig
 from e2vlib.model.decoder import Bridge, UNetDecoder
 from e2vlib.model.encoders import Frames2dEncoder, Frames2dGRUEncoder, ResNetEncoder
+from e2vlib.model.lifting import Lifting, LiftStem
 
 __all__ = ["E2V", "build_e2v", "count_parameters"]
 
@@ -93,19 +94,30 @@ class E2V(nn.Module):
         self.config = config
         self.input_shape: tuple[int, int, int] = config.input_shape
         self.in_channels: int = config.in_channels
-        if config.encoder == "resnet3d":
-            self.encoder: nn.Module = ResNetEncoder(config, dim=3)
-        elif config.encoder == "frames2d":
-            self.encoder = Frames2dEncoder(config)
-        else:
-            self.encoder = Frames2dGRUEncoder(config)
-        self.encoder_shape = self.encoder.output_shape(config.input_shape)
-        if min(self.encoder_shape) < 1:
-            raise ValueError(f"input_shape {config.input_shape} is too small for this encoder")
-        self.bridge = Bridge(config, self.encoder_shape)
-        self.hidden_channels = self.bridge.channels
+        self.lift = config.lift
+        self.hidden_channels = 0  # channels the decoder reads on the 32^3 grid
+        if self.lift != "alone":
+            if config.encoder == "resnet3d":
+                self.encoder: nn.Module = ResNetEncoder(config, dim=3)
+            elif config.encoder == "frames2d":
+                self.encoder = Frames2dEncoder(config)
+            else:
+                self.encoder = Frames2dGRUEncoder(config)
+            self.encoder_shape = self.encoder.output_shape(config.input_shape)
+            if min(self.encoder_shape) < 1:
+                raise ValueError(f"input_shape {config.input_shape} is too small for this "
+                                 "encoder")
+            self.bridge = Bridge(config, self.encoder_shape)
+            self.hidden_channels = self.bridge.channels
+        if self.lift != "none":  # a hybrid: the frames lifted through the known orbit too
+            n_frames, size, _ = config.input_shape
+            self.lifting = Lifting(n_frames, size, config.lift_dt_us)
+            self.lift_stem = LiftStem(config)
+        if self.lift in ("early", "alone"):
+            self.hidden_channels += config.lift_width
         self.decoder = UNetDecoder(self.hidden_channels, config)
-        self.head = nn.Conv3d(self.hidden_channels, 1, 1)
+        head_in = self.hidden_channels + (config.lift_width if self.lift == "late" else 0)
+        self.head = nn.Conv3d(head_in, 1, 1)
         self._init_weights()
 
     @property
@@ -173,9 +185,16 @@ class E2V(nn.Module):
         """``(B, n_frames, H, W)`` (or ``(B, C, n_frames, H, W)`` for ``in_channels`` C > 1)
         float -> logits ``(B, 32, 32, 32)`` indexed ``[b, x, y, z]``."""
         self.check_input(x)
-        z = self.encoder(x.unsqueeze(1) if self.in_channels == 1 else x)
-        h = self.bridge(z)
-        return self.head(self.decoder(h)).squeeze(1)
+        if self.lift == "none":
+            h = self.bridge(self.encoder(x.unsqueeze(1) if self.in_channels == 1 else x))
+            return self.head(self.decoder(h)).squeeze(1)
+        lifted = self.lift_stem(self.lifting(x))  # the hybrids: (B, lift_width, 32, 32, 32)
+        if self.lift == "alone":
+            return self.head(self.decoder(lifted)).squeeze(1)
+        h = self.bridge(self.encoder(x.unsqueeze(1)))
+        if self.lift == "early":
+            return self.head(self.decoder(torch.cat([h, lifted], 1))).squeeze(1)
+        return self.head(torch.cat([self.decoder(h), lifted], 1)).squeeze(1)  # "late"
 
 
 def build_e2v(preset: str = "tiny", seed: int | None = None, **overrides: Any) -> E2V:
