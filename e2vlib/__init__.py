@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,414 lines)::
+Module map (``python tools/module_map.py --write``; 24,612 lines)::
 
-    lines per band: core 14,452 · speed and scale 1,197 · lab 7,429 · command line 1,336
+    lines per band: core 14,485 · speed and scale 1,197 · lab 7,715 · command line 1,215
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -41,7 +41,7 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
       samples.py           213  One sample
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     events.py              325  Event streams as numpy structured arrays, and their validation
-    files.py               167  Crash-safe file writing
+    files.py               200  Crash-safe file writing
     frames.py              383  Event representations
     geometry.py            393  Geometry baselines without learning
     inputs/                493  Model inputs
@@ -97,9 +97,10 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          401  Training at scale
-    experiments/          7429  The lab
+    experiments/          7715  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
+      errors.py            129  How a command fails
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
       geometry_study.py    273  The geometry study
@@ -112,8 +113,8 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
         mapping.py         248  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_objects/       2615  Real objects of the paper's categories from Debian packages
-        __main__.py        147  The recorded commands that build the real-object catalogue ...
+      real_objects/       2693  Real objects of the paper's categories from Debian packages
+        __main__.py        171  The recorded commands that build the real-object catalogue ...
         build.py           296  Joins the candidates, the review, the duplicates and the ...
         catalogue.py       197  The committed catalogue of real objects and its checker
         labels.py          206  Solid 32^3 voxel labels for open, many-part meshes
@@ -122,22 +123,21 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
         samples.py         365  The real objects as samples a model trains on
         ship.py            109  The real objects a lesson may ship
         sources.py         306  The Debian packages real objects come from
-        study.py           489  The real_objects study
-      real_study.py        411  Scoring on real meshes
+        study.py           543  The real_objects study
+      real_study.py        420  Scoring on real meshes
       reconstruct.py       274  Reconstruct one object with a trained checkpoint, from a ...
-      reports.py           246  Recorded results, read the same way by every lesson
-      runner.py            507  Running studies
-      shipping.py           96  Ship one recorded run's model
+      reports.py           240  Recorded results, read the same way by every lesson
+      runner.py            581  Running studies
+      shipping.py           94  Ship one recorded run's model
       studies.py           170  The studies
-      summary.py           165  A study's results as numbers
+      summary.py           167  A study's results as numbers
     __main__.py             77  Command line
-    cli/                  1259  The command line's parts: python -m e2vlib (__main__) runs them
-      checks.py            360  Checks of command-line values before any work starts
-      data_commands.py     164  The dataset commands
-      errors.py            125  How the command line fails
-      model_commands.py    268  The model commands
+    cli/                  1138  The command line's parts: python -m e2vlib (__main__) runs them
+      checks.py            365  Checks of command-line values before any work starts
+      data_commands.py     166  The dataset commands
+      model_commands.py    273  The model commands
       parser.py            213  The command line's parser
-      study_commands.py     88  The study command
+      study_commands.py     89  The study command
 
 End of the module map.
 """

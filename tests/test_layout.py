@@ -110,7 +110,7 @@ def test_importing_a_constant_config_or_recipe_loads_no_torch_or_vtk(code):
 
 
 FACES = ["e2vlib.data", "e2vlib.model", "e2vlib.train", "e2vlib.inputs", "e2vlib.shapes",
-         "e2vlib.viz", "e2vlib.experiments", "e2vlib.experiments.real_meshes", "e2vlib.cli"]
+         "e2vlib.viz", "e2vlib.experiments", "e2vlib.experiments.real_meshes"]
 
 
 @pytest.mark.parametrize("face", FACES)
