@@ -140,9 +140,15 @@ def run_step(args: argparse.Namespace, argv: list[str]) -> int:
     elif args.step == "samples":
         build_samples(args.cache, args.out, only=args.only, limit=args.limit)
     elif args.step == "ship":
-        from e2vlib.experiments.real_objects.ship import SHIP_DIR, ship_samples
+        from e2vlib.experiments.errors import UsageError
+        from e2vlib.experiments.real_objects.ship import SHIP_DIR, check_ship_out, ship_samples
 
-        print(ship_samples(data, args.out or Path(SHIP_DIR)))
+        out = args.out or Path(SHIP_DIR)
+        try:  # a bad --out is a bad command line (exit status 2)
+            check_ship_out(data, out)
+        except (ValueError, OSError) as err:
+            raise UsageError(str(err)) from None
+        print(ship_samples(data, out))
     elif args.step == "study":
         _study(args, argv)
     print(f"{args.step}: {time.monotonic() - start:.0f} s", file=sys.stderr)

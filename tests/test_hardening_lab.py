@@ -1,0 +1,318 @@
+"""The lab's commands against hostile input (issue 46): the real-object ship command, the
+results-table readers, declared sensors far larger than the events, the catalogue API, the
+real_objects command's error wrapper, truncated event files, checkpoints that carry a pickle
+payload or odd weights."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from e2vlib.experiments.real_objects import __main__ as real_objects_cli
+from e2vlib.experiments.real_objects import ship
+
+from .conftest import REPO
+
+SHIPPED = REPO / "data_small" / "real_objects"
+UNIX = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs and /dev/zero")
+
+
+def run_real_objects(capsys, *argv) -> tuple[int, str, str]:
+    """``python -m e2vlib.experiments.real_objects ARGV`` in-process: (exit status, stdout,
+    stderr), checking that an error is one line ``error: ...`` without a traceback."""
+    code = real_objects_cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    if code != 0:
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert len(lines) == 1 and lines[0].startswith("error: "), err
+        assert "Traceback" not in err
+    return code, out, err
+
+
+# --------------------------------------------------------------------------- ship
+
+
+@pytest.fixture
+def scratch(tmp_path, monkeypatch):
+    """A scratch folder (the working directory) holding a copy of the shipped real objects
+    as the built dataset ``cache/real_objects/data``; returns that data folder."""
+    data = tmp_path / "cache" / "real_objects" / "data"
+    shutil.copytree(SHIPPED, data)
+    monkeypatch.chdir(tmp_path)
+    return data
+
+
+def _first_sample(data: Path) -> Path:
+    return sorted((data / "samples").glob("*.npz"))[0]
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and not p.is_symlink()}
+
+
+def test_ship_from_a_clean_copy_works(scratch, capsys):
+    code, out, _ = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 0, out
+    assert _snapshot(Path("shipped")) == _snapshot(SHIPPED)
+
+
+def test_a_sample_linked_out_of_the_data_folder_is_never_shipped(scratch, capsys, tmp_path):
+    secret = tmp_path / "secret.txt"
+    secret.write_text("root:x:0:0:root:/root:/bin/bash\n" * 50)
+    sample = _first_sample(scratch)
+    sample.unlink()
+    sample.symlink_to(secret)
+    code, _, err = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 1 and sample.name in err and "outside" in err
+    assert not Path("shipped").exists()
+
+
+def test_a_sample_of_random_bytes_is_refused_before_copying(scratch, capsys):
+    sample = _first_sample(scratch)
+    sample.write_bytes(np.random.default_rng(0).bytes(5000))
+    code, _, err = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 1 and sample.name in err and "not an .npz" in err
+    assert not Path("shipped").exists()
+
+
+def test_a_sample_with_other_arrays_does_not_match_its_digest(scratch, capsys):
+    sample = _first_sample(scratch)
+    with np.load(sample) as z:
+        arrays = {k: z[k] for k in z.files}
+    first = sorted(arrays)[0]
+    arrays[first] = np.zeros_like(arrays[first])
+    np.savez_compressed(sample, **arrays)
+    code, _, err = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 1 and sample.name in err and "does not match its digest" in err
+    assert not Path("shipped").exists()
+
+
+@UNIX
+def test_a_sample_linked_to_dev_zero_is_refused_at_once(scratch, capsys):
+    sample = _first_sample(scratch)
+    sample.unlink()
+    sample.symlink_to("/dev/zero")
+    code, _, err = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 1 and sample.name in err
+    assert not Path("shipped").exists()
+
+
+@UNIX
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+def test_a_sample_that_is_a_fifo_or_device_inside_the_folder_is_refused(scratch, capsys, kind):
+    sample = _first_sample(scratch)
+    sample.unlink()
+    if kind == "fifo":
+        os.mkfifo(sample)
+    else:  # a link to a device that resolves inside the data folder
+        (scratch / "zero").symlink_to("/dev/zero")
+        sample.symlink_to(scratch / "zero")
+    with pytest.raises(ValueError, match="FIFO|character device|outside"):
+        ship.read_sample(scratch, sample.stem, "0" * 64)
+    code, _, err = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 1 and sample.name in err
+
+
+def test_a_sample_over_the_size_bound_is_refused(scratch, monkeypatch, capsys):
+    monkeypatch.setattr(ship, "MAX_SHIP_SAMPLE_BYTES", 1000)
+    code, _, err = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 1 and "more than the 1000 bytes" in err
+
+
+@pytest.mark.parametrize("out, says", [
+    ("cache/real_objects/data", "is the dataset"),
+    ("cache", "holds the dataset"),
+    (".", "holds the dataset"),
+    ("cache/real_objects/data/inner", "lies inside the dataset"),
+])
+def test_ship_out_that_is_holds_or_lies_in_its_source_is_refused(scratch, capsys, out, says):
+    before = _snapshot(scratch)
+    code, _, err = run_real_objects(capsys, "ship", "--out", out)
+    assert code == 2 and says in err and "give another folder" in err
+    assert _snapshot(scratch) == before  # the source's manifest and config untouched
+    with pytest.raises(ValueError, match=says):  # the API refuses it too
+        ship.ship_samples(scratch, out)
+
+
+def test_ship_out_through_a_link_to_its_source_is_refused(scratch, capsys, tmp_path):
+    (tmp_path / "alias").symlink_to(scratch)
+    code, _, err = run_real_objects(capsys, "ship", "--out", "alias")
+    assert code == 2 and "is the dataset" in err
+
+
+def test_ship_out_that_is_an_existing_file_is_refused_clearly(scratch, capsys):
+    Path("shipped").write_text("keep me")
+    code, _, err = run_real_objects(capsys, "ship", "--out", "shipped")
+    assert code == 2 and "shipped is an existing file, not a folder" in err
+    assert Path("shipped").read_text() == "keep me"
+
+
+# ------------------------------------------------------------- the error wrapper
+
+
+def test_real_objects_errors_are_one_line_and_debug_shows_the_traceback(tmp_path, capsys,
+                                                                        monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no dataset here
+    code, _, err = run_real_objects(capsys, "ship")
+    assert code == 1 and "cache/real_objects/data holds no real-object dataset" in err
+    code, _, err = run_real_objects(capsys, "bogus-step")
+    assert code == 2 and "invalid choice" in err
+    with pytest.raises(FileNotFoundError):
+        real_objects_cli.main(["ship", "--debug"])
+
+
+@pytest.mark.slow
+def test_the_real_objects_module_fails_in_one_line_as_a_process(tmp_path):
+    import subprocess
+
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    done = subprocess.run([sys.executable, "-m", "e2vlib.experiments.real_objects", "study",
+                           "--table", "--results", str(tmp_path)], capture_output=True,
+                          text=True, cwd=tmp_path, env=env, timeout=120)
+    assert done.returncode == 1
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    assert str(tmp_path / "real_objects.json") in done.stderr
+
+
+# ------------------------------------------------------------- results-table readers
+
+
+def _real_meshes_record() -> dict:
+    return {"study": "real_meshes", "runs": [
+        {"id": f"chair_{i}", "category": "chair",
+         "scores": {"tiny": {"iou@0.3": 0.4125 + i / 100}, "visual_hull": {"iou@0.3": 0.6}}}
+        for i in range(3)]}
+
+
+def _real_objects_record() -> dict:
+    scores = {"iou@0.3": [0.5, 0.4], "iou@val_threshold": [0.55, 0.45]}
+    return {"study": "real_objects", "test_categories": ["chair", "lamp"],
+            "runs": [{"config": "real", "seed": s, "metrics": {"iou@0.3": 0.4125},
+                      "per_object": scores} for s in range(2)],
+            "baselines": {"visual_hull": {"per_object": scores}}}
+
+
+def _table(capsys, which: str, folder: Path) -> tuple[int, str, str]:
+    """Print the recorded table of ``which`` (real_meshes or real_objects) in ``folder``."""
+    if which == "real_objects":
+        return run_real_objects(capsys, "study", "--table", "--results", folder)
+    from e2vlib.experiments.real_study import main
+
+    code = main(["--table", "--out", str(folder)])
+    out, err = capsys.readouterr()
+    if code != 0:
+        assert len(err.strip().splitlines()) == 1 and err.startswith("error: "), err
+    return code, out, err
+
+
+TABLES = {"real_meshes": _real_meshes_record, "real_objects": _real_objects_record}
+TEXT_CASES = {  # a results file's text -> what the one-line error says
+    "nan": (lambda t: t.replace("0.4125", "NaN", 1), "is nan"),
+    "overflow": (lambda t: t.replace("0.4125", "1e999", 1), "1e999 is not finite"),
+    "infinity": (lambda t: t.replace("0.4125", "-Infinity", 1), "Infinity"),
+    "not_json": (lambda t: t[: len(t) // 2], "not a readable results file"),
+    "empty": (lambda t: "", "not a readable results file"),
+    "nested": (lambda t: "[" * 100_000 + "]" * 100_000, "nested 100000 levels deep"),
+    "huge_int": (lambda t: t.replace("0.4125", "9" * 5000, 1), "digits"),
+    "no_runs": (lambda t: '{"study": "x"}', "holds no 'runs' list"),
+    "runs_not_list": (lambda t: '{"runs": {"a": 1}}', "holds no 'runs' list"),
+    "binary": (lambda t: "\udcff", "not UTF-8"),
+    "list": (lambda t: "[1, 2]", "holds no 'runs' list"),
+}
+
+
+def _write(path: Path, text: str) -> None:
+    path.write_bytes(text.encode("utf-8", "surrogateescape"))
+
+
+@pytest.mark.parametrize("which", sorted(TABLES))
+@pytest.mark.parametrize("case", sorted(TEXT_CASES))
+def test_a_hostile_results_file_is_one_line_naming_it(capsys, tmp_path, which, case):
+    change, says = TEXT_CASES[case]
+    path = tmp_path / f"{which}.json"
+    _write(path, change(json.dumps(TABLES[which](), indent=1)))
+    code, out, err = _table(capsys, which, tmp_path)
+    assert code == 1 and str(path) in err and says in err, err
+    assert "nan" not in out and "inf" not in out
+
+
+@pytest.mark.parametrize("which", sorted(TABLES))
+def test_a_good_results_file_prints_its_table(capsys, tmp_path, which):
+    (tmp_path / f"{which}.json").write_text(json.dumps(TABLES[which]()))
+    code, out, _ = _table(capsys, which, tmp_path)
+    assert code == 0 and ("chair" in out or "real" in out)
+
+
+@pytest.mark.parametrize("which, change, says", [
+    ("real_meshes", lambda r: r["runs"][0].pop("scores"), "scores is missing"),
+    ("real_meshes", lambda r: r["runs"][0].update(id=["x"]), "id is ['x'], not a name"),
+    ("real_meshes", lambda r: r["runs"][0]["scores"].update(tiny=[0.4]), "not the scores"),
+    ("real_meshes", lambda r: r["runs"][0]["scores"]["tiny"].update({"iou@0.3": 2.5}),
+     "outside [0, 1]"),
+    ("real_meshes", lambda r: r.update(runs=[]), "holds no object scored"),
+    ("real_objects", lambda r: r.pop("test_categories"), "test_categories is not a list"),
+    ("real_objects", lambda r: r["runs"][0]["per_object"].update({"iou@0.3": [0.5]}),
+     "not a list of 2 scores"),
+    ("real_objects", lambda r: r["runs"][1].update(per_object={"iou@0.3": [1.5, 0.2],
+                                                               "iou@val_threshold": [0, 0]}),
+     "holds 1.5, not a score in [0, 1]"),
+    ("real_objects", lambda r: r["baselines"].update(visual_hull=[1]), "not a record"),
+    ("real_objects", lambda r: r["runs"][0].pop("metrics"), "metrics is missing"),
+    ("real_objects", lambda r: r["runs"][0].update(config={"a": 1}), "not a name"),
+])
+def test_a_results_file_missing_what_the_table_needs_is_named(capsys, tmp_path, which,
+                                                              change, says):
+    record = TABLES[which]()
+    change(record)
+    path = tmp_path / f"{which}.json"
+    path.write_text(json.dumps(record))
+    code, _, err = _table(capsys, which, tmp_path)
+    assert code == 1 and str(path) in err and says in err, err
+
+
+@UNIX
+@pytest.mark.parametrize("which", sorted(TABLES))
+@pytest.mark.parametrize("kind", ["fifo", "dev_zero", "folder", "missing"])
+def test_a_results_file_that_is_no_regular_file_never_hangs(capsys, tmp_path, which, kind):
+    path = tmp_path / f"{which}.json"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "dev_zero":
+        path.symlink_to("/dev/zero")
+    elif kind == "folder":
+        path.mkdir()
+    code, _, err = _table(capsys, which, tmp_path)
+    assert code == 1 and str(path) in err
+    assert {"fifo": "FIFO", "dev_zero": "character device", "folder": "directory",
+            "missing": "`python -m e2vlib.experiments."}[kind] in err
+
+
+def test_a_results_file_over_the_size_bound_is_refused(capsys, tmp_path, monkeypatch):
+    from e2vlib.experiments import runner
+
+    path = tmp_path / "real_meshes.json"
+    path.write_text(json.dumps(_real_meshes_record()))
+    monkeypatch.setattr(runner, "MAX_RESULTS_BYTES", 100)
+    code, _, err = _table(capsys, "real_meshes", tmp_path)
+    assert code == 1 and str(path) in err and "more than the 100 bytes" in err
+
+
+@UNIX
+def test_every_results_reader_refuses_a_fifo(tmp_path):
+    from e2vlib.experiments import reports, summarize
+    from e2vlib.experiments.real_objects import study
+    from e2vlib.experiments.real_study import format_real_table
+
+    path = tmp_path / "loss.json"
+    os.mkfifo(path)
+    for read in (lambda: reports.load_results("loss", tmp_path), lambda: summarize(path),
+                 lambda: format_real_table(path), lambda: study.read_table(path)):
+        with pytest.raises(ValueError, match="FIFO"):
+            read()
