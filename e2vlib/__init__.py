@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,685 lines)::
+Module map (``python tools/module_map.py --write``; 24,732 lines)::
 
-    lines per band: core 14,485 · speed and scale 1,197 · lab 7,788 · command line 1,215
+    lines per band: core 14,485 · speed and scale 1,197 · lab 7,835 · command line 1,215
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -97,7 +97,7 @@ Module map (``python tools/module_map.py --write``; 24,685 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          401  Training at scale
-    experiments/          7788  The lab
+    experiments/          7835  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
       errors.py            129  How a command fails
@@ -107,19 +107,19 @@ Module map (``python tools/module_map.py --write``; 24,685 lines)::
       loader.py            182  A study protocol's splits as model inputs, kept in memory ...
       protocol.py          256  A study's protocol
       provenance.py         58  Where a record was made
-      real_meshes/        1465  Real third-party meshes of the paper's categories, from ...
+      real_meshes/        1483  Real third-party meshes of the paper's categories, from ...
         ac3d.py            224  A small reader of AC3D (.ac) models, the format of Debian's ...
         build.py           243  Building the real-mesh test set
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
-        mapping.py         248  The reviewed table that maps catalogue entries to the ...
+        mapping.py         266  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_objects/       2766  Real objects of the paper's categories from Debian packages
+      real_objects/       2795  Real objects of the paper's categories from Debian packages
         __main__.py        177  The recorded commands that build the real-object catalogue ...
         build.py           296  Joins the candidates, the review, the duplicates and the ...
-        catalogue.py       197  The committed catalogue of real objects and its checker
+        catalogue.py       216  The committed catalogue of real objects and its checker
         labels.py          206  Solid 32^3 voxel labels for open, many-part meshes
         look.py            142  Looking at the candidates
-        readers.py         323  Readers of the real objects' formats, each giving one mesh ...
+        readers.py         333  Readers of the real objects' formats, each giving one mesh ...
         samples.py         365  The real objects as samples a model trains on
         ship.py            176  The real objects a lesson may ship
         sources.py         306  The Debian packages real objects come from

@@ -316,3 +316,69 @@ def test_every_results_reader_refuses_a_fifo(tmp_path):
                  lambda: format_real_table(path), lambda: study.read_table(path)):
         with pytest.raises(ValueError, match="FIFO"):
             read()
+
+
+# ------------------------------------------------------------------ the catalogue API
+
+CATALOGUE_ROW = {"id": "airplane_fgbase_plane", "source": "flightgear-data-base",
+                 "path": "plane.ac", "licence": "GPL-2.0-or-later", "category": "airplane",
+                 "rotation": "", "removed": "", "keep": "yes", "split": "train",
+                 "note": "looked: a small plane"}
+PLANE = """AC3Db
+OBJECT world
+kids 1
+OBJECT poly
+numvert 4
+-0.5 0 -0.2
+0.5 0 -0.2
+0.5 0 0.2
+-0.5 0 0.2
+numsurf 1
+SURF 0x10
+mat 0
+refs 4
+0 0 0
+1 0 0
+2 0 0
+3 0 0
+kids 0
+"""
+
+
+@pytest.mark.parametrize("path", ["/etc/passwd", "../../x.ac", "models/../../../x.ac",
+                                  "z.zip::../../x.ac", "z.zip::/abs.ac", "C:/x.ac",
+                                  "models\\..\\..\\x.ac", "z.zip::", "a::b::c"])
+def test_read_catalogue_refuses_a_path_leaving_its_package(tmp_path, path):
+    from e2vlib.experiments.real_meshes.catalogue import RealMeshError
+    from e2vlib.experiments.real_objects import catalogue as cat
+
+    table = tmp_path / "catalogue.csv"
+    table.write_text(",".join(cat.FIELDS) + "\n" + ",".join(
+        f'"{v}"' for v in {**CATALOGUE_ROW, "path": path}.values()) + "\n")
+    with pytest.raises(RealMeshError, match=r"catalogue.csv: 1 bad row\(s\): line 2: path "):
+        cat.read_catalogue(table)
+    good = tmp_path / "good.csv"
+    good.write_text(table.read_text().replace(path.replace('"', ""), "plane.ac"))
+    assert [r.path for r in cat.read_catalogue(good)] == ["plane.ac"]
+
+
+@pytest.mark.parametrize("how", ["climbs", "absolute", "member", "link"])
+def test_load_row_mesh_reads_only_inside_the_package_folder(tmp_path, how):
+    from e2vlib.experiments.real_meshes.catalogue import RealMeshError
+    from e2vlib.experiments.real_objects import samples
+    from e2vlib.experiments.real_objects.catalogue import RealObject
+
+    package = tmp_path / "cache" / "pkgs" / "flightgear-data-base"
+    package.mkdir(parents=True)
+    outside = tmp_path / "outside.ac"
+    outside.write_text(PLANE)
+    (package / "plane.ac").write_text(PLANE)
+    path = {"climbs": "../../../outside.ac", "absolute": str(outside),
+            "member": "z.zip::../../outside.ac", "link": "linked.ac"}[how]
+    (package / "linked.ac").symlink_to(outside)
+    fields = {k: v for k, v in CATALOGUE_ROW.items() if k != "keep"}
+    row = RealObject(**{**fields, "path": path}, keep=True)
+    with pytest.raises(RealMeshError, match="package"):
+        samples.load_row_mesh(tmp_path / "cache", row)
+    fine = RealObject(**fields, keep=True)
+    assert len(samples.load_row_mesh(tmp_path / "cache", fine).vertices) >= 4
