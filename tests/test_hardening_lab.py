@@ -382,3 +382,46 @@ def test_load_row_mesh_reads_only_inside_the_package_folder(tmp_path, how):
         samples.load_row_mesh(tmp_path / "cache", row)
     fine = RealObject(**fields, keep=True)
     assert len(samples.load_row_mesh(tmp_path / "cache", fine).vertices) >= 4
+
+
+# ------------------------------------------------- a declared sensor far larger than the events
+
+
+def test_events_in_a_corner_of_a_declared_sensor_are_refused_naming_the_file(capsys,
+                                                                             tmp_path):
+    from e2vlib.io import load_events, save_events
+
+    from .test_cli import run
+
+    events, sensor = load_events(REPO / "data_small" / "events" / "lamp_0013.npz")
+    assert sensor == (128, 128) and events["x"].max() < 128
+    big, out = tmp_path / "lamp_4000.npz", tmp_path / "r.npz"
+    save_events(big, events, (4000, 4000))
+    checkpoint = REPO / "data_small" / "checkpoints" / "e2v_tiny.pt"
+    code, _, err = run(capsys, "reconstruct", "--checkpoint", checkpoint, "--events", big,
+                       "--out", out, "--device", "cpu")
+    assert code == 1 and str(big) in err and not out.exists()
+    x, y = events["x"], events["y"]
+    assert (f"they lie within x {x.min()}-{x.max()}, y {y.min()}-{y.max()} of the declared "
+            "4000 x 4000 sensor") in err
+    assert f"(at least {x.max() + 1} x {y.max() + 1})" in err
+    # the same events declared with the sensor that recorded them give an answer
+    code, _, err = run(capsys, "reconstruct", "--checkpoint", checkpoint, "--events",
+                       REPO / "data_small" / "events" / "lamp_0013.npz", "--out", out,
+                       "--device", "cpu")
+    assert code == 0 and out.exists(), err
+
+
+def test_events_that_fill_the_frames_pass_the_spread_check():
+    from e2vlib.events import make_events
+    from e2vlib.experiments.reconstruct import InputError, check_frames_spread
+
+    frames = np.zeros((4, 16, 16), np.uint8)
+    frames[0, 2, 3] = frames[1, 2, 6] = 1  # 4 px across of 16: exactly the quarter
+    events = make_events([3, 6], [2, 2], [0, 10], [1, 1])
+    check_frames_spread(frames, events, (16, 16), "ok.npz")
+    frames[1, 2, 6] = 0
+    frames[1, 2, 5] = 1  # 3 px of 16
+    with pytest.raises(InputError, match=r"^events small.npz: they lie within x 3-6, y 2-2 "
+                                         r"of the declared 16 x 16 sensor"):
+        check_frames_spread(frames, events, (16, 16), "small.npz")

@@ -38,6 +38,12 @@ event) that must hold an event of a recording given to :func:`reconstruct`: with
 events are bunched in time (all in one window, a stray event long before the rest) and the
 model would answer from frames empty by construction. Simulated orbits fill every frame."""
 
+MIN_SPREAD_FRACTION = 0.25
+"""The least share of the model's frame side that the pixels holding events of a recording
+given to :func:`reconstruct` must span (across or down): with less, the events fill a small
+corner of the declared sensor (a sensor size far larger than the camera's) and the model
+would answer from frames empty but for a few pixels. Simulated orbits span most of it."""
+
 
 class InputError(ValueError):
     """Events that cannot make the model's input (too few for its frames, a sensor smaller
@@ -167,6 +173,43 @@ def check_frames_filled(frames: np.ndarray, events: np.ndarray, source: str,
             "first event: keep events from the first dense second on)"))
 
 
+def check_frames_spread(frames: np.ndarray, events: np.ndarray,
+                        sensor_size: tuple[int, int], source: str) -> None:
+    """Refuse frames whose pixels holding events span less than
+    :data:`MIN_SPREAD_FRACTION` of the frame side across and down, naming ``source``, where
+    the events lie on the declared sensor and what to do (an :class:`InputError`). The
+    spatial twin of :func:`check_frames_filled`.
+
+    Examples
+    --------
+    >>> from e2vlib.events import make_events
+    >>> frames = np.zeros((10, 16, 16), np.uint8)
+    >>> frames[:, 0, 0] = 1  # every event pooled into one pixel
+    >>> events = make_events([0, 127], [0, 127], [0, 900], [1, 1])
+    >>> check_frames_spread(frames, events, (4000, 4000), "big.npz")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.experiments.reconstruct.InputError: events big.npz: they lie within x 0-127, y 0-127 \
+of the declared 4000 x 4000 sensor, ...
+    """
+    side_y, side_x = frames.shape[-2:]
+    seen = np.any(frames.reshape(-1, side_y, side_x) != 0, axis=0)
+    rows, cols = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
+    span_y = int(rows[-1] - rows[0] + 1) if rows.size else 0
+    span_x = int(cols[-1] - cols[0] + 1) if cols.size else 0
+    if max(span_x / side_x, span_y / side_y) >= MIN_SPREAD_FRACTION:
+        return
+    x, y = events["x"], events["y"]
+    width, height = sensor_size
+    raise InputError(source, (
+        f"they lie within x {int(x.min())}-{int(x.max())}, y {int(y.min())}-{int(y.max())} of "
+        f"the declared {width} x {height} sensor, so the model's {side_x} x {side_y} px frames "
+        f"see them in {span_x} x {span_y} px (at least {MIN_SPREAD_FRACTION:.0%} of the side "
+        "must hold events: MIN_SPREAD_FRACTION). Save the events with the size of the sensor "
+        f"that recorded them (at least {int(x.max()) + 1} x {int(y.max()) + 1}), or crop "
+        "them to the object"))
+
+
 def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, events=None,
                 sensor_size: tuple[int, int] | None = None, device: str = "auto",
                 seed: int = 0) -> Reconstruction:
@@ -201,7 +244,8 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         ``sensor_size``, a checkpoint whose stored data config disagrees with its model
         (:func:`checkpoint_build_config`), frames of another shape than the model takes;
         :class:`InputError` for events that cannot make the input (fewer than its frames,
-        or bunched in time so that most frames are empty: :func:`check_frames_filled`).
+        bunched in time so that most frames are empty: :func:`check_frames_filled`, or in a
+        small corner of the declared sensor: :func:`check_frames_spread`).
     FloatingPointError
         When the model's output holds NaN or inf (a broken checkpoint).
 
@@ -260,6 +304,7 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         except ValueError as err:
             raise InputError(name, str(err)) from None
         check_frames_filled(frames, events, name, config.dt_us)
+        check_frames_spread(frames, events, sensor_size, name)
     if tuple(frames.shape) != tuple(model.input_shape):
         raise ValueError(f"the model expects frames of shape {tuple(model.input_shape)}, "
                          f"the input gives {tuple(frames.shape)}")
@@ -270,5 +315,6 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
     return Reconstruction(probabilities.astype(np.float32), frames, voxels)
 
 
-__all__ = ["MIN_FILLED_FRACTION", "InputError", "Reconstruction", "check_frames_filled",
-           "checkpoint_build_config", "reconstruct"]
+__all__ = ["MIN_FILLED_FRACTION", "MIN_SPREAD_FRACTION", "InputError", "Reconstruction",
+           "check_frames_filled", "check_frames_spread", "checkpoint_build_config",
+           "reconstruct"]
