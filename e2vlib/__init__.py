@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,778 lines)::
+Module map (``python tools/module_map.py --write``; 24,810 lines)::
 
-    lines per band: core 14,485 · speed and scale 1,197 · lab 7,881 · command line 1,215
+    lines per band: core 14,510 · speed and scale 1,197 · lab 7,888 · command line 1,215
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -47,7 +47,7 @@ Module map (``python tools/module_map.py --write``; 24,778 lines)::
     inputs/                493  Model inputs
       representations.py   306  Model inputs from events
       tensors.py           148  A split held in memory
-    io.py                  610  Read and write event files, converting every foreign ...
+    io.py                  635  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
     model/                1852  The E2V model
@@ -97,7 +97,7 @@ Module map (``python tools/module_map.py --write``; 24,778 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          401  Training at scale
-    experiments/          7881  The lab
+    experiments/          7888  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
       errors.py            129  How a command fails
@@ -125,7 +125,7 @@ Module map (``python tools/module_map.py --write``; 24,778 lines)::
         sources.py         306  The Debian packages real objects come from
         study.py           543  The real_objects study
       real_study.py        420  Scoring on real meshes
-      reconstruct.py       320  Reconstruct one object with a trained checkpoint, from a ...
+      reconstruct.py       327  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           240  Recorded results, read the same way by every lesson
       runner.py            581  Running studies
       shipping.py           94  Ship one recorded run's model

@@ -412,16 +412,131 @@ def test_events_in_a_corner_of_a_declared_sensor_are_refused_naming_the_file(cap
     assert code == 0 and out.exists(), err
 
 
-def test_events_that_fill_the_frames_pass_the_spread_check():
+def test_events_that_fill_a_quarter_of_the_frame_pass_the_spread_check():
     from e2vlib.events import make_events
-    from e2vlib.experiments.reconstruct import InputError, check_frames_spread
+    from e2vlib.experiments.reconstruct import InputError, check_events_spread
 
-    frames = np.zeros((4, 16, 16), np.uint8)
-    frames[0, 2, 3] = frames[1, 2, 6] = 1  # 4 px across of 16: exactly the quarter
-    events = make_events([3, 6], [2, 2], [0, 10], [1, 1])
-    check_frames_spread(frames, events, (16, 16), "ok.npz")
-    frames[1, 2, 6] = 0
-    frames[1, 2, 5] = 1  # 3 px of 16
-    with pytest.raises(InputError, match=r"^events small.npz: they lie within x 3-6, y 2-2 "
-                                         r"of the declared 16 x 16 sensor"):
-        check_frames_spread(frames, events, (16, 16), "small.npz")
+    # a 40 x 32 sensor: the centred 32 x 32 square (columns 4-35) pooled by 2 to 16 px
+    events = make_events([4, 11], [2, 2], [0, 10], [1, 1])  # pixels 0 and 3: 4 px across
+    check_events_spread(events, (40, 32), 16, "ok.npz")
+    events = make_events([4, 9, 39], [2, 2, 2], [0, 10, 20], [1, 1, 1])  # 3 px, one outside
+    with pytest.raises(InputError, match=r"^events small.npz: they lie within x 4-39, y 2-2 "
+                                         r"of the declared 40 x 32 sensor, so the model's 16 x "
+                                         r"16 px frames see them in 3 x 1 px"):
+        check_events_spread(events, (40, 32), 16, "small.npz")
+
+
+# ------------------------------------------------------------------------ event files
+
+FORMATS = (".npz", ".txt", ".txt.gz", ".h5")
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    """data_small's tiny checkpoint, read once."""
+    from e2vlib.model import read_checkpoint
+
+    return read_checkpoint(REPO / "data_small" / "checkpoints" / "e2v_tiny.pt")
+
+
+def _lamp():
+    from e2vlib.io import load_events
+
+    return load_events(REPO / "data_small" / "events" / "lamp_0013.npz")[0]
+
+
+def test_an_npz_whose_header_declares_more_than_it_holds_is_called_truncated(tmp_path):
+    import io
+    import zipfile
+
+    from e2vlib.events import make_events
+    from e2vlib.io import load_events, save_events
+
+    k = np.arange(1000)
+    good, liar = tmp_path / "good.npz", tmp_path / "liar.npz"
+    save_events(good, make_events(k % 16, k % 16, 10 * k, np.ones(1000)), (16, 16))
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(liar, "w") as out:
+        for name in src.namelist():
+            data = src.read(name)
+            if name == "t.npy":  # a header declaring 100 x the values the member holds
+                array = np.load(io.BytesIO(data))
+                header = io.BytesIO()
+                np.lib.format.write_array_header_1_0(header, {
+                    "descr": np.lib.format.dtype_to_descr(array.dtype),
+                    "fortran_order": False, "shape": (100 * len(array),)})
+                data = header.getvalue() + array.tobytes()
+            out.writestr(name, data)
+    with pytest.raises(ValueError, match=r"liar.npz: truncated: the array 't' declares "
+                                         r"\[100000\] values of int64 \(800000 bytes\) but "
+                                         r"holds 8000 bytes"):
+        load_events(liar)
+
+
+def test_a_text_event_file_over_the_line_bound_is_refused(tmp_path, monkeypatch):
+    import gzip
+
+    from e2vlib import io as event_io
+
+    monkeypatch.setattr(event_io, "MAX_TEXT_EVENTS", 1000)
+    for name, opener in (("many.txt", open), ("many.txt.gz", gzip.open)):
+        path = tmp_path / name
+        with opener(path, "wt") as f:  # a few kB of gzip that unpack to many lines
+            f.write("16 16\n" + "0.001 1 1 1\n" * 1001)
+        with pytest.raises(ValueError, match=rf"{name}: more than io.MAX_TEXT_EVENTS = 1000"):
+            event_io.load_events(path)
+        with opener(path, "wt") as f:
+            f.write("16 16\n" + "0.001 1 1 1\n" * 1000)
+        assert len(event_io.load_events(path)[0]) == 1000
+
+
+@pytest.mark.parametrize("suffix", [".txt.gz", ".h5", ".npz"])
+def test_a_cut_short_event_file_is_called_truncated(tmp_path, suffix):
+    from e2vlib.io import load_events, save_events
+
+    path = tmp_path / f"lamp{suffix}"
+    save_events(path, _lamp(), (128, 128))
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match=rf"lamp{suffix}: corrupted or truncated"):
+        load_events(path)
+
+
+def test_an_hdf5_file_declaring_gigabytes_is_refused_from_its_headers(tmp_path):
+    import h5py
+
+    from e2vlib.io import load_events
+
+    path = tmp_path / "bomb.h5"
+    with h5py.File(path, "w") as f:  # chunked and never written: a few kB on disk
+        for name, dtype in (("x", "u2"), ("y", "u2"), ("t", "i8"), ("p", "i1")):
+            f.create_dataset(f"events/{name}", shape=(1 << 30,), dtype=dtype, chunks=(1024,))
+        f.attrs.update(width=16, height=16)
+    assert path.stat().st_size < 1 << 20
+    with pytest.raises(ValueError, match=r"bomb.h5: the event arrays declare 13 GiB .*"
+                                         r"MAX_EVENT_BYTES"):
+        load_events(path)
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_every_format_with_a_far_larger_declared_sensor_is_refused(tmp_path, suffix, tiny):
+    from e2vlib.experiments.reconstruct import InputError, reconstruct
+    from e2vlib.io import save_events
+
+    path = tmp_path / f"lamp{suffix}"
+    save_events(path, _lamp(), (4000, 4000))
+    with pytest.raises(InputError, match=rf"^events {path}: they lie within .* of the "
+                                         r"declared 4000 x 4000 sensor"):
+        reconstruct(tiny, events=path, device="cpu")
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_every_format_with_bunched_or_offset_events_is_refused(tmp_path, suffix, tiny):
+    from e2vlib.experiments.reconstruct import InputError, reconstruct
+    from e2vlib.io import save_events
+
+    events = _lamp()
+    events["t"][1:] += 60_000_000  # one stray event a minute before the orbit
+    path = tmp_path / f"lamp{suffix}"
+    save_events(path, events, (128, 128))
+    with pytest.raises(InputError, match=rf"^events {path}: only 1 of the model's 100 frames"):
+        reconstruct(tiny, events=path, device="cpu")

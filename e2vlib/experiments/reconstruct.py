@@ -173,41 +173,47 @@ def check_frames_filled(frames: np.ndarray, events: np.ndarray, source: str,
             "first event: keep events from the first dense second on)"))
 
 
-def check_frames_spread(frames: np.ndarray, events: np.ndarray,
-                        sensor_size: tuple[int, int], source: str) -> None:
-    """Refuse frames whose pixels holding events span less than
-    :data:`MIN_SPREAD_FRACTION` of the frame side across and down, naming ``source``, where
-    the events lie on the declared sensor and what to do (an :class:`InputError`). The
-    spatial twin of :func:`check_frames_filled`.
+def check_events_spread(events: np.ndarray, sensor_size: tuple[int, int], frame_size: int,
+                        source: str) -> None:
+    """Refuse events that the model's frames (the centred square of the sensor pooled to
+    ``frame_size``, as :func:`~e2vlib.inputs.recording_input` makes them) would see in less
+    than :data:`MIN_SPREAD_FRACTION` of the frame side across and down, naming ``source``,
+    where the events lie on the declared sensor and what to do (an :class:`InputError`).
+    The spatial twin of :func:`check_frames_filled`, checked before any frame is made (the
+    frames of a 4000 x 4000 sensor take gigabytes).
 
     Examples
     --------
     >>> from e2vlib.events import make_events
-    >>> frames = np.zeros((10, 16, 16), np.uint8)
-    >>> frames[:, 0, 0] = 1  # every event pooled into one pixel
     >>> events = make_events([0, 127], [0, 127], [0, 900], [1, 1])
-    >>> check_frames_spread(frames, events, (4000, 4000), "big.npz")  # doctest: +ELLIPSIS
+    >>> check_events_spread(events, (128, 128), 64, "small.npz")  # spans the frame
+    >>> check_events_spread(events, (4000, 4000), 64, "big.npz")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     e2vlib.experiments.reconstruct.InputError: events big.npz: they lie within x 0-127, y 0-127 \
 of the declared 4000 x 4000 sensor, ...
     """
-    side_y, side_x = frames.shape[-2:]
-    seen = np.any(frames.reshape(-1, side_y, side_x) != 0, axis=0)
-    rows, cols = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
-    span_y = int(rows[-1] - rows[0] + 1) if rows.size else 0
-    span_x = int(cols[-1] - cols[0] + 1) if cols.size else 0
-    if max(span_x / side_x, span_y / side_y) >= MIN_SPREAD_FRACTION:
+    width, height = sensor_size
+    factor = min(width, height) // frame_size
+    if factor < 1 or not len(events):  # recording_input refuses these, naming why
+        return
+    side = factor * frame_size
+    top, left = (height - side) // 2, (width - side) // 2
+    x = events["x"].astype(np.int64) - left
+    y = events["y"].astype(np.int64) - top
+    seen = (x >= 0) & (x < side) & (y >= 0) & (y < side)
+    spans = [int(v.max() - v.min() + 1) if v.size else 0
+             for v in (x[seen] // factor, y[seen] // factor)]
+    if max(spans) >= MIN_SPREAD_FRACTION * frame_size:
         return
     x, y = events["x"], events["y"]
-    width, height = sensor_size
     raise InputError(source, (
         f"they lie within x {int(x.min())}-{int(x.max())}, y {int(y.min())}-{int(y.max())} of "
-        f"the declared {width} x {height} sensor, so the model's {side_x} x {side_y} px frames "
-        f"see them in {span_x} x {span_y} px (at least {MIN_SPREAD_FRACTION:.0%} of the side "
-        "must hold events: MIN_SPREAD_FRACTION). Save the events with the size of the sensor "
-        f"that recorded them (at least {int(x.max()) + 1} x {int(y.max()) + 1}), or crop "
-        "them to the object"))
+        f"the declared {width} x {height} sensor, so the model's {frame_size} x {frame_size} "
+        f"px frames see them in {spans[0]} x {spans[1]} px (at least "
+        f"{MIN_SPREAD_FRACTION:.0%} of the side must hold events: MIN_SPREAD_FRACTION). Save "
+        "the events with the size of the sensor that recorded them (at least "
+        f"{int(x.max()) + 1} x {int(y.max()) + 1}), or crop them to the object"))
 
 
 def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, events=None,
@@ -245,7 +251,7 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         (:func:`checkpoint_build_config`), frames of another shape than the model takes;
         :class:`InputError` for events that cannot make the input (fewer than its frames,
         bunched in time so that most frames are empty: :func:`check_frames_filled`, or in a
-        small corner of the declared sensor: :func:`check_frames_spread`).
+        small corner of the declared sensor: :func:`check_events_spread`).
     FloatingPointError
         When the model's output holds NaN or inf (a broken checkpoint).
 
@@ -297,6 +303,8 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
             events, sensor_size = load_events(events)
         elif sensor_size is None:
             raise ValueError("an event array needs its sensor_size (width, height)")
+        if len(events) >= config.n_frames:  # (fewer: recording_input says so)
+            check_events_spread(events, sensor_size, config.frame_size, name)
         try:
             frames = recording_input(events, sensor_size, config.frame_size,
                                            n_frames=config.n_frames, dt_us=config.dt_us,
@@ -304,7 +312,6 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         except ValueError as err:
             raise InputError(name, str(err)) from None
         check_frames_filled(frames, events, name, config.dt_us)
-        check_frames_spread(frames, events, sensor_size, name)
     if tuple(frames.shape) != tuple(model.input_shape):
         raise ValueError(f"the model expects frames of shape {tuple(model.input_shape)}, "
                          f"the input gives {tuple(frames.shape)}")
@@ -316,5 +323,5 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
 
 
 __all__ = ["MIN_FILLED_FRACTION", "MIN_SPREAD_FRACTION", "InputError", "Reconstruction",
-           "check_frames_filled", "check_frames_spread", "checkpoint_build_config",
+           "check_frames_filled", "check_events_spread", "checkpoint_build_config",
            "reconstruct"]
