@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,810 lines)::
+Module map (``python tools/module_map.py --write``; 24,826 lines)::
 
-    lines per band: core 14,510 · speed and scale 1,197 · lab 7,888 · command line 1,215
+    lines per band: core 14,524 · speed and scale 1,199 · lab 7,888 · command line 1,215
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -50,8 +50,8 @@ Module map (``python tools/module_map.py --write``; 24,810 lines)::
     io.py                  635  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1852  The E2V model
-      checkpoint.py        373  E2V checkpoint files
+    model/                1866  The E2V model
+      checkpoint.py        387  E2V checkpoint files
       config.py            287  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          274  E2V's encoders
@@ -91,12 +91,12 @@ Module map (``python tools/module_map.py --write``; 24,810 lines)::
       style.py              24  The lessons' colours and default views
       widgets.py           192  Widgets around a matplotlib picture that still shows where ...
     voxels.py              472  Occupancy grids
-    scale/                1197  Speed and scale
+    scale/                1199  Speed and scale
       frames_numba.py      358  Frames from events with compiled (numba) kernels
       options.py             7  The choices of fit_at_scale's options, importable without ...
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
-      training.py          401  Training at scale
+      training.py          403  Training at scale
     experiments/          7888  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson

@@ -6,7 +6,9 @@ payload or odd weights."""
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -540,3 +542,129 @@ def test_every_format_with_bunched_or_offset_events_is_refused(tmp_path, suffix,
     save_events(path, events, (128, 128))
     with pytest.raises(InputError, match=rf"^events {path}: only 1 of the model's 100 frames"):
         reconstruct(tiny, events=path, device="cpu")
+
+
+# ------------------------------------------------------------------------ checkpoints
+
+REFUSED = {  # variant -> what the one-line refusal says
+    "pickle": "holds Python objects besides weights",
+    "int32": "holds torch.int32 values where the model has torch.float32",
+    "nan": "holds non-finite weights",
+    "truncated": "corrupted, truncated or not a torch file",
+    "empty": "is empty (0 bytes)",
+}
+
+
+class _Payload:
+    """Unpickling this writes the file ``marker``: proof that code in a checkpoint ran."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (exec, (f"open({str(self.marker)!r}, 'w').write('ran')",))
+
+
+@pytest.fixture(scope="module")
+def variants(tmp_path_factory):
+    """data_small's tiny checkpoint changed: a pickle payload, int32 / float64 / bf16 / NaN
+    weights (no digest, as another program would write them), cut in half, empty."""
+    import torch
+
+    from e2vlib.model import read_checkpoint
+
+    folder = tmp_path_factory.mktemp("checkpoints")
+    source = REPO / "data_small" / "checkpoints" / "e2v_tiny.pt"
+    ckpt = read_checkpoint(source)
+    optimizer = torch.optim.AdamW([torch.zeros(1, requires_grad=True)])
+    ckpt.update(optimizer=optimizer.state_dict(), epoch=1, best_iou=0.1, history=[],
+                torch_rng=torch.get_rng_state())  # each is also a last.pt to resume from
+    torch.save({**ckpt, "note": _Payload(folder / "RAN")}, folder / "pickle.pt")
+    casts = {"int32": lambda t: t.to(torch.int32), "float64": lambda t: t.double(),
+             "bf16": lambda t: t.bfloat16(), "nan": lambda t: torch.full_like(t, math.nan)}
+    for name, cast in casts.items():
+        plain = {k: v for k, v in ckpt.items() if k != "weights_sha256"}
+        plain["model"] = {k: cast(v) if v.is_floating_point() else v
+                          for k, v in ckpt["model"].items()}
+        torch.save(plain, folder / f"{name}.pt")
+    data = source.read_bytes()
+    (folder / "truncated.pt").write_bytes(data[: len(data) // 2])
+    (folder / "empty.pt").write_bytes(b"")
+    return folder
+
+
+def _entry_points(checkpoint: Path, tmp_path: Path) -> dict[str, list]:
+    """Each command line that reads ``checkpoint`` (train --resume reads OUT/last.pt)."""
+    run_dir = tmp_path / "run"
+    run_dir.mkdir(exist_ok=True)
+    shutil.copy(checkpoint, run_dir / "last.pt")
+    data = REPO / "data_small"
+    return {
+        "reconstruct": ["reconstruct", "--checkpoint", checkpoint, "--events",
+                        data / "events" / "lamp_0013.npz", "--out", tmp_path / "r.npz",
+                        "--device", "cpu"],
+        "evaluate": ["evaluate", "--checkpoint", checkpoint, "--data", data, "--split", "test",
+                     "--device", "cpu"],
+        "figures": ["figures", "--checkpoint", checkpoint, "--out", tmp_path / "figures"],
+        "train --resume": ["train", "--data", data, "--out", run_dir, "--resume", "--epochs",
+                           "1", "--device", "cpu"],
+    }
+
+
+@pytest.mark.parametrize("variant", sorted(REFUSED))
+def test_a_bad_checkpoint_is_refused_by_every_command_naming_it(capsys, tmp_path, variants,
+                                                                variant):
+    from .test_cli import run
+
+    checkpoint = variants / f"{variant}.pt"
+    for command, argv in _entry_points(checkpoint, tmp_path).items():
+        code, out, err = run(capsys, *argv)
+        named = tmp_path / "run" / "last.pt" if command == "train --resume" else checkpoint
+        assert code == 1 and str(named) in err and REFUSED[variant] in err, (command, err)
+    assert not (variants / "RAN").exists()  # the payload never ran
+    assert not (tmp_path / "r.npz").exists() and not (tmp_path / "figures").exists()
+
+
+@pytest.mark.parametrize("variant", sorted(REFUSED))
+def test_lesson_14s_fine_tuning_start_refuses_a_bad_checkpoint(tmp_path, variants, variant):
+    from e2vlib.experiments.real_objects import study
+    from e2vlib.model import CheckpointError, load_checkpoint
+
+    with pytest.raises(CheckpointError, match=re.escape(REFUSED[variant])):
+        load_checkpoint(variants / f"{variant}.pt")  # what lesson 14 fine-tunes from
+    start = study.checkpoint_path(tmp_path, "procedural", 0)
+    shutil.copy(variants / f"{variant}.pt", start)
+    with pytest.raises(CheckpointError, match=re.escape(REFUSED[variant])):  # the study's
+        study.run_config("fine_tuned", 0, {"real": {"train": None, "val": None}},
+                         tmp_path, quick=True)
+    assert not (variants / "RAN").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant, tolerance", [("float64", 1e-6), ("bf16", 0.05)])
+def test_float64_and_bf16_weights_give_the_float32_models_answer(variants, variant,
+                                                                 tolerance):
+    from e2vlib.experiments.reconstruct import reconstruct
+    from e2vlib.model import load_checkpoint
+
+    events = REPO / "data_small" / "events" / "lamp_0013.npz"
+    model = load_checkpoint(variants / f"{variant}.pt")
+    assert {p.dtype for p in model.parameters()} == {next(iter(model.parameters())).dtype}
+    reference = reconstruct(REPO / "data_small" / "checkpoints" / "e2v_tiny.pt", events=events,
+                            device="cpu").probabilities
+    answer = reconstruct(variants / f"{variant}.pt", events=events, device="cpu").probabilities
+    assert answer.dtype == np.float32
+    assert np.abs(answer - reference).max() < tolerance
+
+
+def test_resuming_from_int32_weights_is_refused_by_the_library_too(variants):
+    import torch
+
+    from e2vlib.model import CheckpointError, load_checkpoint, read_checkpoint
+    from e2vlib.scale.training import LEGACY_LOSS, read_resume_state
+
+    model = load_checkpoint(variants / "float64.pt")  # the same model, float weights
+    loss = read_checkpoint(variants / "float64.pt").get("loss", LEGACY_LOSS)
+    with pytest.raises(CheckpointError, match="holds torch.int32 values where the model has "
+                                              "torch.float32"):
+        read_resume_state(variants / "int32.pt", model, None, torch.device("cpu"), loss)

@@ -131,12 +131,12 @@ of ...
     if args.resume:
         ckpt = read_checkpoint(last)
         resume_checks(last, ckpt, args.preset)
+        model = model_from_checkpoint(ckpt, source=f"checkpoint {last}").train()  # checked
         done = int(ckpt["epoch"]) + 1
         if done >= recipe.epochs:
             print(f"nothing to do: {last} already holds {done} epochs of the {recipe.epochs} "
                   "asked for; pass a larger --epochs to train further")
             return 0
-        model = model_from_checkpoint(ckpt, source=f"checkpoint {last}").train()
         del ckpt
     elif init is not None:
         ckpt = read_checkpoint(init)
