@@ -314,8 +314,8 @@ def run_real_objects(configs: Sequence[str] = MAIN, seeds: Sequence[int] = (0, 1
                 "quick_epochs": 1 if quick else None}
     results = read_results(path) or {"study": "real_objects", "question": QUESTION,
                                      "protocol": protocol, "runs": []}
-    if results["protocol"] != protocol:
-        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
+    if results.get("protocol") != protocol:
+        raise ValueError(f"{path} holds runs of another protocol ({results.get('protocol')}); "
                          "use another --out folder")
     if results.get("test_ids", test_ids) != test_ids:
         raise ValueError(f"{path} scored other test objects than {real} holds now; move it "
