@@ -389,6 +389,7 @@ def test_load_row_mesh_reads_only_inside_the_package_folder(tmp_path, how):
 # ------------------------------------------------- a declared sensor far larger than the events
 
 
+@pytest.mark.slow  # (runs the model once, for the same events on their own sensor)
 def test_events_in_a_corner_of_a_declared_sensor_are_refused_naming_the_file(capsys,
                                                                              tmp_path):
     from e2vlib.io import load_events, save_events
