@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,826 lines)::
+Module map (``python tools/module_map.py --write``; 24,828 lines)::
 
-    lines per band: core 14,524 · speed and scale 1,199 · lab 7,888 · command line 1,215
+    lines per band: core 14,524 · speed and scale 1,199 · lab 7,890 · command line 1,215
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -97,7 +97,7 @@ Module map (``python tools/module_map.py --write``; 24,826 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          403  Training at scale
-    experiments/          7888  The lab
+    experiments/          7890  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
       errors.py            129  How a command fails
@@ -113,7 +113,7 @@ Module map (``python tools/module_map.py --write``; 24,826 lines)::
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
         mapping.py         266  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_objects/       2795  Real objects of the paper's categories from Debian packages
+      real_objects/       2796  Real objects of the paper's categories from Debian packages
         __main__.py        177  The recorded commands that build the real-object catalogue ...
         build.py           296  Joins the candidates, the review, the duplicates and the ...
         catalogue.py       216  The committed catalogue of real objects and its checker
@@ -123,8 +123,8 @@ Module map (``python tools/module_map.py --write``; 24,826 lines)::
         samples.py         365  The real objects as samples a model trains on
         ship.py            176  The real objects a lesson may ship
         sources.py         306  The Debian packages real objects come from
-        study.py           543  The real_objects study
-      real_study.py        420  Scoring on real meshes
+        study.py           544  The real_objects study
+      real_study.py        421  Scoring on real meshes
       reconstruct.py       327  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           240  Recorded results, read the same way by every lesson
       runner.py            581  Running studies

@@ -25,7 +25,6 @@ category the file also holds a summary: n, mean IoU@0.3 and its 95 % interval ov
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -180,7 +179,9 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         from e2vlib.experiments.real_meshes import BUILD_COMMAND
         raise FileNotFoundError(f"{data} holds no real-mesh dataset; build it first: "
                                 f"{BUILD_COMMAND}")
-    stored = json.loads((data / "config.json").read_text())
+    from e2vlib.data.checks import read_config
+
+    stored = read_config(data)  # a regular, bounded, checked file
     settings = {k: v for k, v in stored.items() if k not in ("categories", "source")}
     config = BuildConfig.from_dict({**settings, "categories": list(paper.CATEGORIES),
                                     "per_category": 1})

@@ -28,7 +28,6 @@ object (:func:`paired_with`). Command: ``python -m e2vlib.experiments.real_objec
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import tempfile
@@ -320,7 +319,9 @@ def run_real_objects(configs: Sequence[str] = MAIN, seeds: Sequence[int] = (0, 1
     if results.get("test_ids", test_ids) != test_ids:
         raise ValueError(f"{path} scored other test objects than {real} holds now; move it "
                          "away to start the study afresh")
-    manifest = json.loads((Path(real) / "config.json").read_text()).get("source", {})
+    from e2vlib.data.checks import read_config
+
+    manifest = read_config(real).get("source", {})
     results.update(test_ids=test_ids, test_categories=list(sets["real"]["test"].categories),
                    configs={n: {**asdict(c), "train": list(c.train)} for n, c in CONFIGS.items()},
                    catalogue_sha256=manifest.get("catalogue_sha256"))
