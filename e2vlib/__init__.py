@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,664 lines)::
+Module map (``python tools/module_map.py --write``; 25,078 lines)::
 
-    lines per band: core 14,702 · speed and scale 1,197 · lab 7,429 · command line 1,336
+    lines per band: core 14,774 · speed and scale 1,199 · lab 7,890 · command line 1,215
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -41,17 +41,17 @@ Module map (``python tools/module_map.py --write``; 24,664 lines)::
       samples.py           213  One sample
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     events.py              325  Event streams as numpy structured arrays, and their validation
-    files.py               167  Crash-safe file writing
+    files.py               200  Crash-safe file writing
     frames.py              383  Event representations
     geometry.py            495  Geometry baselines without learning
     inputs/                493  Model inputs
       representations.py   306  Model inputs from events
       tensors.py           148  A split held in memory
-    io.py                  610  Read and write event files, converting every foreign ...
+    io.py                  635  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                2000  The E2V model
-      checkpoint.py        373  E2V checkpoint files
+    model/                2014  The E2V model
+      checkpoint.py        387  E2V checkpoint files
       config.py            321  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          274  E2V's encoders
@@ -92,53 +92,53 @@ Module map (``python tools/module_map.py --write``; 24,664 lines)::
       style.py              24  The lessons' colours and default views
       widgets.py           192  Widgets around a matplotlib picture that still shows where ...
     voxels.py              472  Occupancy grids
-    scale/                1197  Speed and scale
+    scale/                1199  Speed and scale
       frames_numba.py      358  Frames from events with compiled (numba) kernels
       options.py             7  The choices of fit_at_scale's options, importable without ...
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
-      training.py          401  Training at scale
-    experiments/          7429  The lab
+      training.py          403  Training at scale
+    experiments/          7890  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
+      errors.py            129  How a command fails
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
       geometry_study.py    273  The geometry study
       loader.py            182  A study protocol's splits as model inputs, kept in memory ...
       protocol.py          256  A study's protocol
       provenance.py         58  Where a record was made
-      real_meshes/        1465  Real third-party meshes of the paper's categories, from ...
+      real_meshes/        1483  Real third-party meshes of the paper's categories, from ...
         ac3d.py            224  A small reader of AC3D (.ac) models, the format of Debian's ...
         build.py           243  Building the real-mesh test set
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
-        mapping.py         248  The reviewed table that maps catalogue entries to the ...
+        mapping.py         266  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_objects/       2615  Real objects of the paper's categories from Debian packages
-        __main__.py        147  The recorded commands that build the real-object catalogue ...
+      real_objects/       2796  Real objects of the paper's categories from Debian packages
+        __main__.py        177  The recorded commands that build the real-object catalogue ...
         build.py           296  Joins the candidates, the review, the duplicates and the ...
-        catalogue.py       197  The committed catalogue of real objects and its checker
+        catalogue.py       216  The committed catalogue of real objects and its checker
         labels.py          206  Solid 32^3 voxel labels for open, many-part meshes
         look.py            142  Looking at the candidates
-        readers.py         323  Readers of the real objects' formats, each giving one mesh ...
+        readers.py         333  Readers of the real objects' formats, each giving one mesh ...
         samples.py         365  The real objects as samples a model trains on
-        ship.py            109  The real objects a lesson may ship
+        ship.py            176  The real objects a lesson may ship
         sources.py         306  The Debian packages real objects come from
-        study.py           489  The real_objects study
-      real_study.py        411  Scoring on real meshes
-      reconstruct.py       274  Reconstruct one object with a trained checkpoint, from a ...
-      reports.py           246  Recorded results, read the same way by every lesson
-      runner.py            507  Running studies
-      shipping.py           96  Ship one recorded run's model
+        study.py           544  The real_objects study
+      real_study.py        421  Scoring on real meshes
+      reconstruct.py       327  Reconstruct one object with a trained checkpoint, from a ...
+      reports.py           240  Recorded results, read the same way by every lesson
+      runner.py            581  Running studies
+      shipping.py           94  Ship one recorded run's model
       studies.py           170  The studies
-      summary.py           165  A study's results as numbers
+      summary.py           167  A study's results as numbers
     __main__.py             77  Command line
-    cli/                  1259  The command line's parts: python -m e2vlib (__main__) runs them
-      checks.py            360  Checks of command-line values before any work starts
-      data_commands.py     164  The dataset commands
-      errors.py            125  How the command line fails
-      model_commands.py    268  The model commands
+    cli/                  1138  The command line's parts: python -m e2vlib (__main__) runs them
+      checks.py            365  Checks of command-line values before any work starts
+      data_commands.py     166  The dataset commands
+      model_commands.py    273  The model commands
       parser.py            213  The command line's parser
-      study_commands.py     88  The study command
+      study_commands.py     89  The study command
 
 End of the module map.
 """

@@ -20,7 +20,7 @@ from pathlib import Path
 from e2vlib.cli import parser
 from e2vlib.cli.checks import DEVICES, PICTURE_TYPES
 from e2vlib.cli.data_commands import DATA_PRESETS
-from e2vlib.cli.errors import EXIT_FAILURE, EXIT_USAGE, CommandError, UsageError, run
+from e2vlib.experiments.errors import EXIT_FAILURE, EXIT_USAGE, CommandError, UsageError, run
 
 
 def _figures(args: argparse.Namespace) -> int:

@@ -122,6 +122,39 @@ def input_file(path: str | os.PathLike, what: str) -> Path:
     return path
 
 
+def read_bounded(path: str | os.PathLike, what: str, limit: int) -> bytes:
+    """The bytes of the regular file ``path`` (:func:`input_file`), refused with a
+    ValueError naming ``what`` and the file when it holds more than ``limit`` bytes; at most
+    ``limit + 1`` bytes are ever read, so a file that grows while read is refused too.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "r.json"
+    >>> _ = path.write_text("{}")
+    >>> read_bounded(path, "results file", 10)
+    b'{}'
+    >>> read_bounded(path, "results file", 1)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: results file .../r.json is 2 bytes, more than the 1 bytes such a file can be; \
+is it the right file?
+    """
+    path = input_file(path, what)
+    # opened without blocking and checked again: a FIFO swapped in after the check above
+    # would otherwise hang the open
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with os.fdopen(fd, "rb") as f:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError(f"{what} {path} is not a regular file; give a file")
+        data = f.read(limit + 1)
+    if len(data) > limit:
+        size = max(len(data), os.stat(path).st_size)
+        raise ValueError(f"{what} {path} is {size} bytes, more than the {limit} bytes such a "
+                         "file can be; is it the right file?")
+    return data
+
+
 class atomic_path:  # noqa: N801  (used like a function: ``with atomic_path(p) as tmp``)
     """Context manager yielding a temporary path next to ``path``; renamed on success.
 

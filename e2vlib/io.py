@@ -87,14 +87,19 @@ declare: about 300 million events as e2vlib writes them (13 bytes each), three t
 100 million that load in about 3 GiB. The declared shapes and dtypes are checked before
 anything is read, so a few MB of compressed zeros cannot ask for gigabytes."""
 
+MAX_TEXT_EVENTS: int = 100_000_000
+"""Most event lines a text file (``.txt``, ``.txt.gz``) may hold: 100 million, which load
+in about 3 GiB. Reading stops one line past it, so a gzip of a few MB that unpacks to
+gigabytes of lines cannot fill the memory."""
+
 _COLUMNS = ("x", "y", "t", "p")
 
 
-def _check_declared(path: Path, declared: dict[str, tuple[tuple[int, ...], np.dtype]]) -> None:
+def _check_declared(path: Path, declared: dict[str, tuple]) -> None:
     """Refuse columns (name -> declared shape, dtype) that are not plain numbers or that
     together take more than :data:`MAX_EVENT_BYTES`, before they are read."""
     total = 0.0
-    for name, (shape, dtype) in declared.items():
+    for name, (shape, dtype, *_) in declared.items():
         if dtype.kind not in "biuf" or dtype.fields is not None or dtype.subdtype is not None:
             raise ValueError(f"{path}: the array {name!r} holds {dtype}, not plain numbers; "
                              "write the file again with e2vlib.io.save_events")
@@ -106,10 +111,10 @@ def _check_declared(path: Path, declared: dict[str, tuple[tuple[int, ...], np.dt
                          "(about 300 M events); split the recording into shorter files")
 
 
-def _npz_headers(path: Path, names: tuple[str, ...]) -> dict[str, tuple[tuple[int, ...],
-                                                                      np.dtype]]:
-    """Declared ``(shape, dtype)`` of the ``.npy`` members ``names`` of a zip, read from
-    their headers only (members that are missing are left out: the reader reports them)."""
+def _npz_headers(path: Path, names: tuple[str, ...]) -> dict[str, tuple]:
+    """Declared ``(shape, dtype, held)`` of the ``.npy`` members ``names`` of a zip, read
+    from their headers only (``held``: the bytes of data the member holds after its header;
+    members that are missing are left out: the reader reports them)."""
     fmt = np.lib.format
     headers = {}
     with zipfile.ZipFile(path) as archive:
@@ -126,8 +131,21 @@ def _npz_headers(path: Path, names: tuple[str, ...]) -> dict[str, tuple[tuple[in
                                      f"{version}, which e2vlib does not read; write the file "
                                      "again with e2vlib.io.save_events")
                 shape, _, dtype = read(member)
-            headers[name] = (tuple(shape), np.dtype(dtype))
+                held = archive.getinfo(f"{name}.npy").file_size - member.tell()
+            headers[name] = (tuple(shape), np.dtype(dtype), held)
     return headers
+
+
+def _check_held(path: Path, declared: dict[str, tuple]) -> None:
+    """Refuse a member holding fewer bytes than its header declares: the file is truncated
+    (or its header altered), which reading would only find at the end."""
+    for name, (shape, dtype, held) in declared.items():
+        needed = float(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+        if needed > held:
+            raise ValueError(f"{path}: truncated: the array {name!r} declares {list(shape)} "
+                             f"values of {dtype} ({needed:.0f} bytes) but holds {held} bytes; "
+                             "the file was cut short or altered: copy it again, or write it "
+                             "with e2vlib.io.save_events")
 
 
 def _format_of(path: Path) -> str:
@@ -294,12 +312,13 @@ def _write_npz(path: Path, events: np.ndarray, sensor_size: tuple[int, int]) -> 
 def _read_npz(path: Path) -> tuple[np.ndarray, tuple[int, int]]:
     try:
         declared = _npz_headers(path, (*_COLUMNS, "sensor_size"))
-        size = declared.pop("sensor_size", ((2,), np.dtype(np.int64)))
+        size = declared.pop("sensor_size", ((2,), np.dtype(np.int64), 16))
         _check_declared(path, declared)
         if np.prod(size[0], dtype=np.float64) > 16:
             raise ValueError(f"{path}: the array sensor_size has shape {list(size[0])}, not "
                              "(2,); write it again with save_events(path, events, "
                              "(width, height))")
+        _check_held(path, {**declared, "sensor_size": size})
         with np.load(path, allow_pickle=False) as data:
             missing = {"x", "y", "t", "p", "sensor_size"} - set(data.files)
             if missing:
@@ -432,7 +451,13 @@ def _read_text(path: Path) -> tuple[np.ndarray, tuple[int, int]]:
                 raise ValueError(f"{path}: the file is empty; start it with 'width height'")
             with warnings.catch_warnings():
                 warnings.filterwarnings("ignore", "loadtxt: input contained no data")
-                table = np.loadtxt(f, ndmin=2, dtype=np.float64)
+                warnings.filterwarnings("ignore", "Input line .* contained no data")  # max_rows
+                table = np.loadtxt(f, ndmin=2, dtype=np.float64,
+                                   max_rows=MAX_TEXT_EVENTS + 1)
+            if len(table) > MAX_TEXT_EVENTS:
+                raise ValueError(f"{path}: more than io.MAX_TEXT_EVENTS = {MAX_TEXT_EVENTS} "
+                                 "event lines; split the recording into shorter files (or "
+                                 "save it as .npz or .h5)")
     except (EOFError, OSError, gzip.BadGzipFile) as err:
         raise ValueError(f"{path}: corrupted or truncated text file ({err})") from err
     except UnicodeDecodeError as err:

@@ -199,8 +199,8 @@ def test_verify_data_on_a_broken_manifest_is_one_line(dataset, capsys, tmp_path)
 def test_a_workers_refusal_prints_as_one_plain_line_and_a_bug_stays_unexpected():
     import pickle
 
-    from e2vlib.cli.errors import one_line
     from e2vlib.data.build import JobError, run_jobs
+    from e2vlib.experiments.errors import one_line
 
     with pytest.raises(JobError) as refused:
         run_jobs(int, ["1", "x"], 1, "parsing", "number", False, names=["one", "ex"])

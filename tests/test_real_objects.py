@@ -289,7 +289,7 @@ def test_read_catalogue_refuses_bad_files_naming_them(tmp_path):
         cat.read_catalogue(wrong)
     latin = tmp_path / "latin.csv"
     latin.write_bytes(good.read_bytes().replace(b"saloon", b"sal\xf6on"))
-    with pytest.raises(RealMeshError, match="latin.csv: not UTF-8"):
+    with pytest.raises(RealMeshError, match="latin.csv line 2: not UTF-8"):
         cat.read_catalogue(latin)
     with pytest.raises(FileNotFoundError, match="gone.csv not found"):
         cat.read_catalogue(tmp_path / "gone.csv")

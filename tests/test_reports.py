@@ -27,7 +27,7 @@ def test_load_results_reads_a_record_and_names_the_command_when_missing(tmp_path
                        match=r"python -m e2vlib\.experiments\.real_study "):
         reports.load_results("real_meshes", tmp_path)
     (tmp_path / "noise.json").write_text("{not json")
-    with pytest.raises(ValueError, match="noise.json is not a readable study record"):
+    with pytest.raises(ValueError, match="noise.json is not a readable results file"):
         reports.load_results("noise", tmp_path)
     (tmp_path / "input.json").write_text("[1, 2]")
     with pytest.raises(ValueError, match="no 'runs' list"):

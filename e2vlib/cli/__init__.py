@@ -2,13 +2,12 @@
 
 Every subcommand is a thin wrapper over library functions: it checks its arguments before
 any work starts and before anything is written, then calls the library, and prints what it
-made. The code lives in six modules, each with one job:
+made. How a command fails (:class:`UsageError`, exit 2; :class:`CommandError`, exit 1; the
+one-line :class:`Parser`; :func:`run`, the loop that turns every error into one line on
+stderr) lives below, in :mod:`e2vlib.experiments.errors`, which the lab's own commands
+share. The code here is five modules, each with one job:
 
 =============================  =============================================================
-``cli.errors``                 how a command fails: :class:`UsageError` (exit 2),
-                               :class:`CommandError` (exit 1), :func:`one_line`, the
-                               one-line :class:`Parser`, and :func:`run`, the loop that
-                               parses, runs and turns every error into one line on stderr
 ``cli.checks``                 values checked before the work: argparse types
                                (:func:`whole_number`, :func:`bounded`,
                                :func:`positive_number`), :func:`check_device`, output
@@ -24,18 +23,10 @@ made. The code lives in six modules, each with one job:
                                choices (from the library's own tuples)
 =============================  =============================================================
 
-``errors`` imports no other module of this package; ``checks`` imports ``errors``; the
-three command modules import those two; ``parser`` imports all five; none imports this
-``__init__``. The library modules each command needs are imported when it runs, so
-``--help`` and argument errors stay quick to answer (torch loads only through the tuples
-the parser's choices come from). ``figures`` stays in ``e2vlib.__main__``.
+``checks`` imports no other module of this package; the three command modules import it;
+``parser`` imports all four; none imports this ``__init__``. The library modules each
+command needs are imported when it runs, so ``--help`` and argument errors stay quick to
+answer (torch loads only through the tuples the parser's choices come from). ``figures``
+stays in ``e2vlib.__main__``.
 """
 
-import lazy_loader
-
-__getattr__, __dir__, __all__ = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "errors": ["EXIT_FAILURE", "EXIT_USAGE", "CommandError", "Parser", "run", "UsageError"],
-    },
-)

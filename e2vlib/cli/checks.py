@@ -1,9 +1,9 @@
 """Checks of command-line values before any work starts: argument types, devices, output
 paths, category lists, and frames that must match a checkpoint's.
 
-Each raises :class:`~e2vlib.cli.errors.UsageError` (exit status 2) naming the flag and the
+Each raises :class:`~e2vlib.experiments.errors.UsageError` (exit status 2) naming the flag and the
 fix, except :func:`model_frames_check`, whose data is wrong rather than the command line
-(:class:`~e2vlib.cli.errors.CommandError` or ValueError, exit status 1).
+(:class:`~e2vlib.experiments.errors.CommandError` or ValueError, exit status 1).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import math
 import os
 from pathlib import Path
 
-from e2vlib.cli.errors import CommandError, UsageError
+from e2vlib.experiments.errors import CommandError, UsageError
 from e2vlib.files import kind_of_file
 
 DEVICES = "auto, cpu, cuda, cuda:N (the N-th GPU), mps"
@@ -112,7 +112,8 @@ def check_device(text: str) -> None:
     >>> check_device("tpu")
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --device 'tpu' is not a device; use one of auto, cpu, cuda, \
+    e2vlib.experiments.errors.UsageError: --device 'tpu' is not a device; use one of auto, cpu, \
+cuda, \
 cuda:N (the N-th GPU), mps
     """
     import torch
@@ -153,7 +154,8 @@ def writable_folder(folder: Path, flag: str, target: Path) -> None:
     >>> writable_folder(blocker / "run", "--out", blocker / "run")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --out .../file.txt/run: .../file.txt is a file, not a folder; \
+    e2vlib.experiments.errors.UsageError: --out .../file.txt/run: .../file.txt is a file, not a \
+folder; \
 choose another --out
     """
     existing = folder.absolute()
@@ -192,7 +194,7 @@ def output_file(text: str, flag: str, example: str) -> Path:
     >>> output_file(str(folder), "--out", "r.npz")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --out ... is a directory; give a file name, e.g. .../r.npz
+    e2vlib.experiments.errors.UsageError: --out ... is a directory; give a file name, e.g. .../r.npz
     """
     path = Path(text)
     if path.is_dir():
@@ -221,11 +223,12 @@ def separate_paths(outputs: dict[str, Path | None], inputs: dict[str, str | None
     >>> separate_paths({"--out": Path("r.npz"), "--png": Path("./r.npz")}, {})
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --out and --png are both r.npz; give each output its own file
+    e2vlib.experiments.errors.UsageError: --out and --png are both r.npz; give each output its \
+own file
     >>> separate_paths({"--out": Path("e.npz")}, {"--events": "e.npz"})
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --out e.npz is the --events input; write the output to \
+    e2vlib.experiments.errors.UsageError: --out e.npz is the --events input; write the output to \
 another file (an output never replaces an input)
     """
     def same(a: Path, b: Path) -> bool:
@@ -259,7 +262,8 @@ def output_folder(text: str, flag: str) -> Path:
     >>> output_folder(str(blocker), "--out")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --out .../file.txt is a file; give a folder (it is created if \
+    e2vlib.experiments.errors.UsageError: --out .../file.txt is a file; give a folder (it is \
+created if \
 missing)
     """
     path = Path(text)
@@ -279,7 +283,8 @@ def parse_categories(text: str) -> tuple[str, ...]:
     >>> parse_categories("chair,chairs")
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --categories: unknown ['chairs']; choose from airplane,bench,\
+    e2vlib.experiments.errors.UsageError: --categories: unknown ['chairs']; choose from \
+airplane,bench,\
 cabinet,car,chair,display,lamp,speaker,rifle,sofa,table,telephone,watercraft
     """
     from e2vlib.paper import CATEGORIES
@@ -312,7 +317,7 @@ def model_frames_check(model, ckpt: dict, checkpoint: str, data_config: dict | N
     >>> model_frames_check(model, ckpt, "m.pt", None, (10, 32, 32), "dataset d")
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.CommandError: checkpoint m.pt takes frames of shape (10, 16, 16) \
+    e2vlib.experiments.errors.CommandError: checkpoint m.pt takes frames of shape (10, 16, 16) \
 (n_frames, H, W) but dataset d has (10, 32, 32); use data built with the checkpoint's \
 settings (make-data --frame-size), or a model trained on it
     """
@@ -329,7 +334,7 @@ settings (make-data --frame-size), or a model trained on it
 
 def real_meshes_flags_check(args: argparse.Namespace) -> None:
     """Refuse ``make-data --real-meshes`` with flags the real-mesh test set cannot honour,
-    each with its reason, before any work (:class:`~e2vlib.cli.errors.UsageError`).
+    each with its reason, before any work (:class:`~e2vlib.experiments.errors.UsageError`).
 
     Examples
     --------
@@ -339,7 +344,7 @@ def real_meshes_flags_check(args: argparse.Namespace) -> None:
     ...                                "--per-category", "3", "--grey-video"]))
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --real-meshes builds one test sample per kept catalogue \
+    e2vlib.experiments.errors.UsageError: --real-meshes builds one test sample per kept catalogue \
 row, so these flags cannot apply: --per-category (the catalogue sets the objects); \
 --grey-video (the real-mesh set stores no grey video); drop them
     """

@@ -9,7 +9,7 @@ import argparse
 from pathlib import Path
 
 from e2vlib.cli.checks import output_folder, parse_categories, real_meshes_flags_check
-from e2vlib.cli.errors import CommandError, UsageError
+from e2vlib.experiments.errors import CommandError, UsageError
 
 DATA_PRESETS = {
     # data_small/: 13 categories x 64 objects = 832 samples, 128 px renders, 64 px frames
@@ -34,7 +34,8 @@ def build_config(args: argparse.Namespace):
     >>> build_config(parse(["make-data", "--out", "d", "--resolution", "32", "--frame-size", "64"]))
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: invalid dataset settings: frame_size 64 must divide resolution 32
+    e2vlib.experiments.errors.UsageError: invalid dataset settings: frame_size 64 must divide \
+resolution 32
     """
     from e2vlib.data import BuildConfig
     from e2vlib.paper import CATEGORIES
@@ -67,7 +68,7 @@ def run_make_data(args: argparse.Namespace) -> int:
     >>> run_make_data(parse(["make-data", "--out", "d", "--shard", "3/2"]))  # before any work
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --shard: shard '3/2': need 0 <= i < n
+    e2vlib.experiments.errors.UsageError: --shard: shard '3/2': need 0 <= i < n
     """
     from e2vlib.data import build_dataset, check_build_folder, describe_build, parse_shard
 
@@ -108,7 +109,8 @@ def run_merge_data(args: argparse.Namespace) -> int:
     ... # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: shard folder .../s0: no such folder; give the --out folders of \
+    e2vlib.experiments.errors.UsageError: shard folder .../s0: no such folder; give the --out \
+folders of \
 the make-data --shard runs
     """
     from e2vlib.scale.shards import merge_datasets

@@ -16,7 +16,7 @@ from e2vlib.cli.checks import (
     output_folder,
     separate_paths,
 )
-from e2vlib.cli.errors import CommandError, UsageError
+from e2vlib.experiments.errors import CommandError, UsageError
 
 
 def resume_checks(last: Path, ckpt: dict, preset: str | None) -> None:
@@ -30,14 +30,16 @@ def resume_checks(last: Path, ckpt: dict, preset: str | None) -> None:
     >>> resume_checks(last, {"config": PRESETS["tiny"].to_dict()}, None)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.CommandError: cannot resume from run/last.pt: it holds the weights only \
+    e2vlib.experiments.errors.CommandError: cannot resume from run/last.pt: it holds the \
+weights only \
 (no optimizer, epoch, best_iou, history, torch_rng; ...
     >>> full = {"config": PRESETS["tiny"].to_dict(), **dict.fromkeys(RESUME_KEYS)}
     >>> resume_checks(last, full, "tiny")  # the model's own preset: no answer
     >>> resume_checks(last, full, "tiny2d")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.CommandError: --preset tiny2d differs from the model in run/last.pt, which \
+    e2vlib.experiments.errors.CommandError: --preset tiny2d differs from the model in \
+run/last.pt, which \
 holds preset tiny (different encoder); ...
     """
     from dataclasses import replace
@@ -80,7 +82,8 @@ def run_train(args: argparse.Namespace) -> int:
     ... # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --recipe 'bogus' is not a training recipe; choose one of ...
+    e2vlib.experiments.errors.UsageError: --recipe 'bogus' is not a training recipe; choose one \
+of ...
     """
     from e2vlib.data import E2VDataset
     from e2vlib.data.checks import read_config
@@ -128,12 +131,12 @@ def run_train(args: argparse.Namespace) -> int:
     if args.resume:
         ckpt = read_checkpoint(last)
         resume_checks(last, ckpt, args.preset)
+        model = model_from_checkpoint(ckpt, source=f"checkpoint {last}").train()  # checked
         done = int(ckpt["epoch"]) + 1
         if done >= recipe.epochs:
             print(f"nothing to do: {last} already holds {done} epochs of the {recipe.epochs} "
                   "asked for; pass a larger --epochs to train further")
             return 0
-        model = model_from_checkpoint(ckpt, source=f"checkpoint {last}").train()
         del ckpt
     elif init is not None:
         ckpt = read_checkpoint(init)
@@ -169,7 +172,8 @@ def run_evaluate(args: argparse.Namespace) -> int:
     ...                     folder]))  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --json ... is a directory; give a file name, e.g. .../results.json
+    e2vlib.experiments.errors.UsageError: --json ... is a directory; give a file name, e.g. \
+.../results.json
     """
     import json
 
@@ -214,7 +218,8 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     ...                        "--out", "r.npz", "--png", "r.gif"]))
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: --png r.gif: unknown picture type '.gif'; end the name with one \
+    e2vlib.experiments.errors.UsageError: --png r.gif: unknown picture type '.gif'; end the \
+name with one \
 of .png, .jpg, .jpeg, .pdf, .svg
     """
     import numpy as np

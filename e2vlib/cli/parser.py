@@ -19,9 +19,9 @@ from collections.abc import Callable, Iterable
 
 from e2vlib.cli.checks import DEVICES, bounded, positive_number, whole_number
 from e2vlib.cli.data_commands import DATA_PRESETS, run_make_data, run_merge_data, run_verify_data
-from e2vlib.cli.errors import Parser
 from e2vlib.cli.model_commands import run_evaluate, run_reconstruct, run_train
 from e2vlib.cli.study_commands import run_experiment
+from e2vlib.experiments.errors import Parser
 
 
 def default_first(names: Iterable[str], default: str) -> str:

@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 
 from e2vlib.cli.checks import check_device, output_folder
-from e2vlib.cli.errors import UsageError
+from e2vlib.experiments.errors import UsageError
 
 
 def run_experiment(args: argparse.Namespace) -> int:
@@ -23,7 +23,8 @@ def run_experiment(args: argparse.Namespace) -> int:
     >>> run_experiment(parse(["experiment", "bogus"]))  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: unknown study 'bogus'; choose one of representation, time, ...
+    e2vlib.experiments.errors.UsageError: unknown study 'bogus'; choose one of representation, \
+time, ...
     """
     from e2vlib.experiments import DEFAULT_OUT, STUDIES, run_study, summarize
     from e2vlib.experiments.summary import format_study_table
@@ -60,7 +61,7 @@ def run_geometry_study(args: argparse.Namespace) -> int:
     >>> run_geometry_study(parse(["experiment", "geometry", "--quick"]))
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: the geometry study has no configs and no quick mode (no \
+    e2vlib.experiments.errors.UsageError: the geometry study has no configs and no quick mode (no \
 training); run `python -m e2vlib experiment geometry`
     """
     from e2vlib.experiments import DEFAULT_OUT

@@ -50,6 +50,8 @@ Imported by their module names (they run as commands, or load much):
                                   (``python -m e2vlib.experiments.real_study``)
 ``experiments.real_meshes``       the real meshes: catalogue, reviewed mapping, AC3D reader,
                                   the real-mesh test set
+``experiments.errors``            how a command fails (one line, exit 1 or 2, ``--debug``):
+                                  the command line's and the lab commands' :func:`run`
 ``experiments.shipping``          one kept run's model made into a checkpoint for students
                                   (``data_small/checkpoints/e2v_tiny.pt``)
 ``experiments.reconstruct``       one object reconstructed by a checkpoint, from a mesh or an

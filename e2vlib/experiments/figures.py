@@ -58,6 +58,7 @@ def render_readme_figures(out_dir, data_root, checkpoint, categories=README_CATE
             f"checkpoint {checkpoint} not found: the reconstruction picture needs a trained "
             f"model; train one (python -m e2vlib train --data {data_root} --out DIR) and pass "
             "--checkpoint DIR/best.pt")
+    model = load_checkpoint(checkpoint)  # refused (naming it) before any picture is made
     test = E2VDataset(data_root, "test")
     groups = test.category_indices()
     missing = [c for c in (*categories, events_category) if c not in groups]
@@ -95,7 +96,6 @@ def render_readme_figures(out_dir, data_root, checkpoint, categories=README_CATE
     finally:
         plt.close(fig)
 
-    model = load_checkpoint(checkpoint)
     truths, preds = [], []
     for category in categories:
         stack = [test.arrays(i) for i in groups[category]]

@@ -25,7 +25,6 @@ category the file also holds a summary: n, mean IoU@0.3 and its 95 % interval ov
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -36,7 +35,7 @@ import numpy as np
 
 from e2vlib import metrics, paper
 from e2vlib.experiments.provenance import cpu_name, git_commit, package_version
-from e2vlib.experiments.runner import OBJECT_KEY, update_results
+from e2vlib.experiments.runner import OBJECT_KEY, read_results, update_results
 
 BASELINES = ("visual_hull", "mean_shape", "category_oracle")
 """The methods scored beside the checkpoints, in table order."""
@@ -180,7 +179,9 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
         from e2vlib.experiments.real_meshes import BUILD_COMMAND
         raise FileNotFoundError(f"{data} holds no real-mesh dataset; build it first: "
                                 f"{BUILD_COMMAND}")
-    stored = json.loads((data / "config.json").read_text())
+    from e2vlib.data.checks import read_config
+
+    stored = read_config(data)  # a regular, bounded, checked file
     settings = {k: v for k, v in stored.items() if k not in ("categories", "source")}
     config = BuildConfig.from_dict({**settings, "categories": list(paper.CATEGORIES),
                                     "per_category": 1})
@@ -194,12 +195,15 @@ def run_real_study(out: str | os.PathLike = "experiments/results",
                 "silhouettes": f"{paper.N_VIDEO_FRAMES} grey video frames at "
                                f"{config.resolution} px, poses known",
                 "n_points": n_points}
-    results = (json.loads(path.read_text()) if path.exists()
-               else {"study": "real_meshes", "question": QUESTION, "protocol": protocol,
-                     "checkpoints": {}, "runs": []})
-    if results["protocol"] != protocol:
-        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
+    results = (read_results(path, "real_meshes")
+               or {"study": "real_meshes", "question": QUESTION, "protocol": protocol,
+                   "checkpoints": {}, "runs": []})
+    if results.get("protocol") != protocol:
+        raise ValueError(f"{path} holds runs of another protocol ({results.get('protocol')}); "
                          f"use another --out folder for this one ({protocol})")
+    if not isinstance(results.setdefault("checkpoints", {}), dict):
+        raise ValueError(f"{path}: checkpoints is not a mapping of names to checkpoints; "
+                         "correct it or use another --out folder")
     for name, ckpt in checkpoints.items():
         known = results["checkpoints"].get(name)
         if known is not None and known["path"] != str(ckpt):
@@ -316,11 +320,19 @@ def _write_results(path: Path, results: dict, runs: dict[str, dict], ids: Sequen
 def format_real_table(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> str:
     """The per-category table of a real-mesh results file: n and, per method, the mean of
     ``metric`` with its 95 % interval over objects."""
+    source = "the results"
     if not isinstance(results, dict):
-        results = json.loads(Path(results).read_text())
+        path = source = Path(results)
+        results = read_results(path, "real_meshes")  # the one checked reader
+        if results is None:
+            raise FileNotFoundError(f"no real-mesh results at {path}; record them with "
+                                    f"`{COMMAND} --out {path.parent}`")
     summary = summarize_real(results["runs"], metric)
     left_out = countable_runs(results["runs"])[1]
     methods = list(summary)
+    if not methods:
+        raise ValueError(f"{source} holds no object scored on {metric}; record some with "
+                         f"`{COMMAND}`")
     width = 22  # room for a negative lower bound: "0.261 [-0.022, 0.543]"
     header = f"{'category':<11} {'n':>3} " + " ".join(f"{m:>{width}}" for m in methods)
     lines = [header, "-" * len(header)]
@@ -392,12 +404,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """``python -m e2vlib.experiments.real_study``: score the real-mesh test set (resumable).
 
     Errors are one line on stderr (exit status 1; 2 for a bad command line), as the
-    command line's (:func:`e2vlib.cli.errors.run`; ``--debug`` shows the traceback).
+    command line's (:func:`e2vlib.experiments.errors.run`; ``--debug`` shows the traceback).
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    # the command line's error wrapper: the one import from the lab up to the command line,
-    # allowed by name in .importlinter (these two modules are commands themselves)
-    from e2vlib.cli import errors
+    from e2vlib.experiments import errors  # the command line's error wrapper
 
     def build() -> argparse.ArgumentParser:
         parser = build_parser(errors.Parser)

@@ -38,6 +38,12 @@ event) that must hold an event of a recording given to :func:`reconstruct`: with
 events are bunched in time (all in one window, a stray event long before the rest) and the
 model would answer from frames empty by construction. Simulated orbits fill every frame."""
 
+MIN_SPREAD_FRACTION = 0.25
+"""The least share of the model's frame side that the pixels holding events of a recording
+given to :func:`reconstruct` must span (across or down): with less, the events fill a small
+corner of the declared sensor (a sensor size far larger than the camera's) and the model
+would answer from frames empty but for a few pixels. Simulated orbits span most of it."""
+
 
 class InputError(ValueError):
     """Events that cannot make the model's input (too few for its frames, a sensor smaller
@@ -167,6 +173,49 @@ def check_frames_filled(frames: np.ndarray, events: np.ndarray, source: str,
             "first event: keep events from the first dense second on)"))
 
 
+def check_events_spread(events: np.ndarray, sensor_size: tuple[int, int], frame_size: int,
+                        source: str) -> None:
+    """Refuse events that the model's frames (the centred square of the sensor pooled to
+    ``frame_size``, as :func:`~e2vlib.inputs.recording_input` makes them) would see in less
+    than :data:`MIN_SPREAD_FRACTION` of the frame side across and down, naming ``source``,
+    where the events lie on the declared sensor and what to do (an :class:`InputError`).
+    The spatial twin of :func:`check_frames_filled`, checked before any frame is made (the
+    frames of a 4000 x 4000 sensor take gigabytes).
+
+    Examples
+    --------
+    >>> from e2vlib.events import make_events
+    >>> events = make_events([0, 127], [0, 127], [0, 900], [1, 1])
+    >>> check_events_spread(events, (128, 128), 64, "small.npz")  # spans the frame
+    >>> check_events_spread(events, (4000, 4000), 64, "big.npz")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.experiments.reconstruct.InputError: events big.npz: they lie within x 0-127, y 0-127 \
+of the declared 4000 x 4000 sensor, ...
+    """
+    width, height = sensor_size
+    factor = min(width, height) // frame_size
+    if factor < 1 or not len(events):  # recording_input refuses these, naming why
+        return
+    side = factor * frame_size
+    top, left = (height - side) // 2, (width - side) // 2
+    x = events["x"].astype(np.int64) - left
+    y = events["y"].astype(np.int64) - top
+    seen = (x >= 0) & (x < side) & (y >= 0) & (y < side)
+    spans = [int(v.max() - v.min() + 1) if v.size else 0
+             for v in (x[seen] // factor, y[seen] // factor)]
+    if max(spans) >= MIN_SPREAD_FRACTION * frame_size:
+        return
+    x, y = events["x"], events["y"]
+    raise InputError(source, (
+        f"they lie within x {int(x.min())}-{int(x.max())}, y {int(y.min())}-{int(y.max())} of "
+        f"the declared {width} x {height} sensor, so the model's {frame_size} x {frame_size} "
+        f"px frames see them in {spans[0]} x {spans[1]} px (at least "
+        f"{MIN_SPREAD_FRACTION:.0%} of the side must hold events: MIN_SPREAD_FRACTION). Save "
+        "the events with the size of the sensor that recorded them (at least "
+        f"{int(x.max()) + 1} x {int(y.max()) + 1}), or crop them to the object"))
+
+
 def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, events=None,
                 sensor_size: tuple[int, int] | None = None, device: str = "auto",
                 seed: int = 0) -> Reconstruction:
@@ -201,7 +250,8 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         ``sensor_size``, a checkpoint whose stored data config disagrees with its model
         (:func:`checkpoint_build_config`), frames of another shape than the model takes;
         :class:`InputError` for events that cannot make the input (fewer than its frames,
-        or bunched in time so that most frames are empty: :func:`check_frames_filled`).
+        bunched in time so that most frames are empty: :func:`check_frames_filled`, or in a
+        small corner of the declared sensor: :func:`check_events_spread`).
     FloatingPointError
         When the model's output holds NaN or inf (a broken checkpoint).
 
@@ -253,6 +303,8 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
             events, sensor_size = load_events(events)
         elif sensor_size is None:
             raise ValueError("an event array needs its sensor_size (width, height)")
+        if len(events) >= config.n_frames:  # (fewer: recording_input says so)
+            check_events_spread(events, sensor_size, config.frame_size, name)
         try:
             frames = recording_input(events, sensor_size, config.frame_size,
                                            n_frames=config.n_frames, dt_us=config.dt_us,
@@ -270,5 +322,6 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
     return Reconstruction(probabilities.astype(np.float32), frames, voxels)
 
 
-__all__ = ["MIN_FILLED_FRACTION", "InputError", "Reconstruction", "check_frames_filled",
-           "checkpoint_build_config", "reconstruct"]
+__all__ = ["MIN_FILLED_FRACTION", "MIN_SPREAD_FRACTION", "InputError", "Reconstruction",
+           "check_frames_filled", "check_events_spread", "checkpoint_build_config",
+           "reconstruct"]

@@ -28,7 +28,6 @@ Examples
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from collections.abc import Callable
@@ -37,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from e2vlib.experiments.provenance import REPO
-from e2vlib.experiments.runner import check_results, command_line
+from e2vlib.experiments.runner import command_line, read_results
 from e2vlib.experiments.studies import STUDIES
 from e2vlib.experiments.summary import (
     compare,
@@ -68,7 +67,7 @@ def load_results(study: str, root: str | os.PathLike | None = None) -> dict:
     (each object) is kept once, with a warning naming the copies left out.
     """
     path = Path(root if root is not None else RESULTS_DIR) / f"{study}.json"
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
         if study in STUDIES:
             command = command_line(study, None, [0, 1, 2], False)
         elif study == "real_meshes":  # not a training study: it scores models on real meshes
@@ -77,12 +76,7 @@ def load_results(study: str, root: str | os.PathLike | None = None) -> dict:
             command = f"python -m e2vlib experiment {study}"
         raise MissingResultsError(f"no recorded {study!r} study at {path}: run `{command}` "
                                   "from the repository root (it resumes if interrupted)")
-    try:
-        results = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"{path} is not a readable study record ({error}); restore it with "
-                         "`git checkout -- experiments/results` or rerun the study") from None
-    check_results(results, path, study)
+    results = read_results(path, study)  # the one checked reader
     objects = all("config" not in r and "id" in r for r in results["runs"])
     results["runs"] = unique_runs(results["runs"], (lambda r: r["id"]) if objects else
                                   (lambda r: (r["config"], r["seed"])), str(path))

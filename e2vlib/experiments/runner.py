@@ -23,7 +23,7 @@ from e2vlib.experiments.loader import load_split
 from e2vlib.experiments.protocol import Protocol
 from e2vlib.experiments.provenance import cpu_name, git_commit
 from e2vlib.experiments.studies import STUDIES, THRESHOLDS
-from e2vlib.files import atomic_path
+from e2vlib.files import atomic_path, read_bounded
 from e2vlib.inputs import GREY_INPUTS
 
 
@@ -132,6 +132,10 @@ OBJECT_KEY = ("id",)
 LOCK_TIMEOUT_S = 120.0
 """Seconds a writer waits for another process's hold on a results folder (a hold lasts one
 read, merge and write of a results file) before it gives up with a message."""
+MAX_RESULTS_BYTES = 64 << 20
+"""Largest results file read, in bytes (the recorded ones are under 1 MB)."""
+MAX_RESULTS_DEPTH = 32
+"""Deepest nesting of JSON arrays and objects a results file may hold (records nest 4)."""
 FRACTION = re.compile(r"[.:_](iou|fscore)@|[.:]val_threshold$")
 """Scores that are fractions in [0, 1], by their dotted name in a record: IoU and F-score at
 any threshold (also per category, or of other test data: ``metrics.low:iou@0.3``) and the
@@ -178,6 +182,9 @@ def _record_problem(run: object, study: str | None) -> str | None:
     missing = next((k for k in keys if k not in run), None)
     if missing is not None:
         return f"{missing} is missing"
+    name = "id" if objects else "config"
+    if not isinstance(run[name], str):
+        return f"{name} is {run[name]!r}, not a name"
     if objects:
         scores, prefix = run["scores"], "scores"
         if not isinstance(scores, dict):
@@ -256,18 +263,84 @@ def check_results_path(path: Path) -> None:
         raise ValueError(f"{path} exists and is not a regular file; use another --out folder")
 
 
-def read_results(path: str | os.PathLike, study: str | None = None) -> dict | None:
-    """The results file at ``path`` checked by :func:`check_results` (None when missing)."""
-    path = Path(path)
-    if not path.exists():
-        return None
-    check_results_path(path)
+def _finite(text: str) -> float:
+    """A JSON number as a float, refused when it overflows (``1e999`` reads as inf)."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"the number {text[:40]} is not finite")
+    return value
+
+
+def _whole(text: str) -> int:
+    """A JSON integer, refused when longer than 30 digits (Python's limit is 4300)."""
+    if len(text.lstrip("-")) > 30:
+        raise ValueError(f"an integer of {len(text.lstrip('-'))} digits")
+    return int(text)
+
+
+def _constant(name: str) -> float:
+    """``NaN`` (the interval of one value, in summaries) reads as NaN, which
+    :func:`check_results` refuses in a score; ``Infinity`` is refused here."""
+    if name != "NaN":
+        raise ValueError(f"it holds {name}, which is not a JSON number")
+    return math.nan
+
+
+def parse_results(data: bytes, source: str | os.PathLike) -> object:
+    """The JSON of a results file as read (``source`` names it in errors): UTF-8 JSON with
+    no ``Infinity``, no number that overflows (``1e999``), no integer of more than 30
+    digits, at most :data:`MAX_RESULTS_DEPTH` levels of nesting; ValueError naming the file
+    and the fix otherwise. ``NaN`` reads as NaN (:func:`check_results` refuses it in a
+    score).
+
+    Examples
+    --------
+    >>> parse_results(b'{"runs": []}', "r.json")
+    {'runs': []}
+    >>> parse_results(b'{"runs": [{"iou": 1e999}]}', "r.json")
+    Traceback (most recent call last):
+    ...
+    ValueError: r.json is not a readable results file (the number 1e999 is not finite); \
+restore it from git or rerun the study
+    """
+    def refuse(why: str) -> ValueError:
+        return ValueError(f"{source} is not a readable results file ({why}); restore it "
+                          "from git or rerun the study")
+
     try:
-        results = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ValueError(f"{path} is not valid JSON ({err}); move it away to start the "
-                         "study afresh") from err
-    return check_results(results, path, study)
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise refuse(f"not UTF-8 text at byte {err.start}") from None
+    depth = deepest = 0
+    for char in re.findall(r"[][{}]", re.sub(r'"(?:[^"\\]|\\.)*"', "", text)):  # outside strings
+        if char in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif char in "]}":
+            depth -= 1
+    if deepest > MAX_RESULTS_DEPTH:
+        raise refuse(f"nested {deepest} levels deep, more than MAX_RESULTS_DEPTH "
+                     f"({MAX_RESULTS_DEPTH})")
+    try:
+        return json.loads(text, parse_float=_finite, parse_int=_whole,
+                          parse_constant=_constant)
+    except RecursionError:  # (the depth check above makes this unlikely)
+        raise refuse("nested too deeply") from None
+    except ValueError as err:  # JSONDecodeError, NaN, 1e999, an integer of 5000 digits
+        raise refuse(" ".join(str(err).split())) from None
+
+
+def read_results(path: str | os.PathLike, study: str | None = None) -> dict | None:
+    """The results file at ``path`` checked by :func:`check_results` (None when missing).
+
+    The one reader of results files: a regular file (not a folder, FIFO or device) of at
+    most :data:`MAX_RESULTS_BYTES`, strict JSON (:func:`parse_results`), every record
+    checked; ValueError naming the file otherwise."""
+    path = Path(path)
+    if not path.exists() and not path.is_symlink():
+        return None
+    data = read_bounded(path, "results file", MAX_RESULTS_BYTES)
+    return check_results(parse_results(data, path), path, study)
 
 
 @contextmanager
@@ -406,9 +479,10 @@ def find_same_run(out: Path, protocol: Protocol, seed: int, device: str,
     for other in sorted(Path(out).glob("*.json")):
         if exclude is not None and other.resolve() == exclude.resolve():
             continue
-        try:
-            results = json.loads(other.read_text())
-        except (OSError, json.JSONDecodeError):
+        try:  # (any file that is not a results file is passed over)
+            results = parse_results(read_bounded(other, "results file", MAX_RESULTS_BYTES),
+                                    other)
+        except (OSError, ValueError):
             continue
         if not isinstance(results, dict) or "protocol" not in results:
             continue

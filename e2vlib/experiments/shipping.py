@@ -84,10 +84,8 @@ def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.Argument
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m e2vlib.experiments.shipping STUDY CONFIG SEED OUT``; errors are one line
     on stderr (exit status 1; 2 for a bad command line), as the command line's
-    (:func:`e2vlib.cli.errors.run`; ``--debug`` shows the traceback)."""
-    # the command line's error wrapper: the one import from the lab up to the command line,
-    # allowed by name in .importlinter (these two modules are commands themselves)
-    from e2vlib.cli import errors
+    (:func:`e2vlib.experiments.errors.run`; ``--debug`` shows the traceback)."""
+    from e2vlib.experiments import errors  # the command line's error wrapper
     return errors.run(lambda: build_parser(errors.Parser),
                       None if argv is None else list(argv))
 

@@ -4,11 +4,9 @@ difference, comparisons with a baseline, and the bar chart.
 
 from __future__ import annotations
 
-import json
 import os
 import warnings
 from collections.abc import Callable, Hashable
-from pathlib import Path
 
 import numpy as np
 
@@ -76,7 +74,11 @@ def summarize(results: dict | str | os.PathLike, metric: str = "iou@0.3") -> lis
 
     source = "the results"
     if not isinstance(results, dict):
-        source, results = str(results), json.loads(Path(results).read_text())
+        from e2vlib.experiments.runner import read_results
+
+        source, results = str(results), read_results(results)
+        if results is None:
+            raise FileNotFoundError(f"no results file at {source}; run its study first")
     rows: dict[str, dict] = {}
     for run in unique_runs(results["runs"], source=source):
         row = rows.setdefault(run["config"], {"config": run["config"],

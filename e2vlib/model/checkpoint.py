@@ -25,6 +25,8 @@ Introduced in notebooks/05_the_e2v_model.ipynb.
 from __future__ import annotations
 
 import os
+import pickle
+import re
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -150,10 +152,22 @@ def read_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
         raise FileNotFoundError(f"checkpoint {path} does not exist; train one first "
                                 "(python -m e2vlib train ... writes OUT/best.pt) or fix the path")
     input_file(path, "checkpoint")  # a FIFO, a device, a link loop: say what it is
+    if path.stat().st_size == 0:
+        raise CheckpointError(f"checkpoint {path} is empty (0 bytes): a copy or a save that "
+                              "did not finish; copy it again or re-create it with "
+                              "save_checkpoint")
     _check_archive(path)
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
-    except Exception as err:  # zip/pickle errors come in many types
+    except pickle.UnpicklingError as err:  # objects beyond tensors: never run
+        found = re.search(r"GLOBAL ([\w.]+)", str(err))
+        what = f" (it asks for {found.group(1)})" if found else ""
+        raise CheckpointError(
+            f"checkpoint {path} holds Python objects besides weights and plain values{what}; "
+            "e2vlib reads checkpoints with torch.load(weights_only=True), so none of it ran. "
+            "It was not written by save_checkpoint: re-create it with save_checkpoint, and "
+            "never load it with weights_only=False unless you trust who made it.") from None
+    except Exception as err:  # zip errors come in many types
         raise CheckpointError(
             f"cannot read checkpoint {path}: it is corrupted, truncated or not a torch file "
             f"({type(err).__name__}: {str(err)[:200]}). Re-create it with save_checkpoint."

@@ -29,6 +29,7 @@ from e2vlib.model import (
     CheckpointError,
     E2VConfig,
     check_frames_match,
+    check_state_matches,
     checkpoint_data_config,
     read_checkpoint,
 )
@@ -297,6 +298,7 @@ def read_resume_state(path: Path, model: E2V, data_config: dict | None,
             f"cannot resume from {path}: it has no {missing} (a slimmed or hand-made "
             "checkpoint keeps only the weights). Resume needs the last.pt that fit writes; "
             "start a new run without resume (--resume) instead, e.g. into another folder.")
+    check_state_matches(state, f"checkpoint {path}")  # int or bool weights: never cast
     if differ:
         ours, stored = model.config.to_dict(), _stored_config(state)
         details = ", ".join(f"{k}: {stored.get(k)!r} in last.pt, {ours.get(k)!r} given"

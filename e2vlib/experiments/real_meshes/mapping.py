@@ -161,41 +161,59 @@ def read_mapping(path: str | os.PathLike = MAPPING_CSV, kept_only: bool = True
     >>> sum(m.library == CRRCSIM for m in kept)  # the aircraft of crrcsim-data
     23
     """
-    path = Path(path)
-    reader = csv.DictReader(io.StringIO(_table_text(path), newline=""))
-    try:
-        if tuple(reader.fieldnames or ()) != MAPPING_FIELDS:
-            raise RealMeshError(f"{path}: columns must be {', '.join(MAPPING_FIELDS)}, got "
-                                f"{reader.fieldnames}")
-        rows = check_mapping(list(reader), str(path))
-    except csv.Error as err:
-        raise RealMeshError(f"{path} line {reader.line_num}: not a CSV row ({err}); save the "
-                            "table as UTF-8 CSV") from None
+    rows = check_mapping(read_reviewed_csv(path, MAPPING_FIELDS, MAX_MAPPING_BYTES,
+                                           "mapping table", "data_small/real/catalogue.csv"),
+                         str(path))
     return [r for r in rows if r.keep or not kept_only]
 
 
-def _table_text(path: Path) -> str:
-    """The text of the mapping table ``path`` (UTF-8, a byte-order mark allowed), refused
-    naming the file (and the line, for text that is not UTF-8) when it is not a regular file
-    of at most :data:`MAX_MAPPING_BYTES`."""
+def read_reviewed_csv(path: str | os.PathLike, fields: tuple[str, ...], limit: int,
+                      what: str, reviewed: str) -> list[dict]:
+    """The rows of a reviewed CSV table (the real-mesh mapping, the real-object catalogue)
+    as dicts, before their own checks: a regular file of at most ``limit`` bytes, UTF-8 (a
+    byte-order mark allowed), columns exactly ``fields``. FileNotFoundError or
+    :class:`RealMeshError` naming the file (``what``; ``reviewed``, the committed table)
+    and, for text that is not UTF-8 or not CSV, the line.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "t.csv"
+    >>> _ = path.write_text("id,keep\\nchair_a,yes\\n")
+    >>> read_reviewed_csv(path, ("id", "keep"), 100, "table", "t.csv")
+    [{'id': 'chair_a', 'keep': 'yes'}]
+    >>> read_reviewed_csv(path, ("id",), 100, "table", "t.csv")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.experiments.real_meshes.catalogue.RealMeshError: .../t.csv: columns must be id, \
+got ['id', 'keep']
+    """
+    path = Path(path)
     if not path.exists():
-        raise FileNotFoundError(f"mapping table {path} not found; the reviewed one is "
-                                "data_small/real/catalogue.csv")
+        raise FileNotFoundError(f"{what} {path} not found; the reviewed one is {reviewed}")
     if not path.is_file():
-        raise RealMeshError(f"mapping table {path} is not a regular file (a folder, pipe or "
-                            "device); give a CSV file such as data_small/real/catalogue.csv")
+        raise RealMeshError(f"{what} {path} is not a regular file (a folder, pipe or "
+                            f"device); give a CSV file such as {reviewed}")
     size = path.stat().st_size
-    if size > MAX_MAPPING_BYTES:
-        raise RealMeshError(f"mapping table {path} is {size} bytes, more than "
-                            f"MAX_MAPPING_BYTES ({MAX_MAPPING_BYTES}); give the reviewed "
-                            "table, data_small/real/catalogue.csv")
+    if size > limit:
+        raise RealMeshError(f"{what} {path} is {size} bytes, more than the {limit} such a "
+                            f"table can be; give the reviewed table, {reviewed}")
     data = path.read_bytes()
     try:
-        return data.decode("utf-8-sig")
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
         line = data.count(b"\n", 0, err.start) + 1
         raise RealMeshError(f"{path} line {line}: not UTF-8 text (byte {data[err.start]:#04x}"
                             f"); save the table as UTF-8 CSV") from None
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    try:
+        if tuple(reader.fieldnames or ()) != fields:
+            raise RealMeshError(f"{path}: columns must be {', '.join(fields)}, got "
+                                f"{reader.fieldnames}")
+        return list(reader)
+    except csv.Error as err:
+        raise RealMeshError(f"{path} line {reader.line_num}: not a CSV row ({err}); save the "
+                            "table as UTF-8 CSV") from None
 
 
 def resolve(mapped: Iterable[MappedEntry], folder: str | os.PathLike = FURNITURE_DIR,

@@ -68,8 +68,6 @@ def _extras(cache: Path, step) -> None:
 
 def _study(args: argparse.Namespace, argv: list[str]) -> None:
     """Run (or, with ``--table``, print) the ``real_objects`` study."""
-    import json
-
     from e2vlib.experiments.real_objects import study
 
     path = args.results / "real_objects.json"
@@ -79,16 +77,17 @@ def _study(args: argparse.Namespace, argv: list[str]) -> None:
                                       args.out, quick=args.quick,
                                       load_mesh=study.catalogue_mesh_loader(args.cache),
                                       command=command)
-    results = json.loads(path.read_text())
-    for key in ("iou@0.3", "iou@val_threshold"):
+    results = study.read_table(path)  # the one checked reader, and the table's scores
+    for key in study.TABLE_KEYS:
         print(study.format_table(results, key), end="\n\n")
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run one recorded step (``argv``: the command line after the module name); prints what
-    it did and the seconds it took; returns the exit status (0)."""
-    parser = argparse.ArgumentParser(prog="python -m e2vlib.experiments.real_objects",
-                                     description=__doc__.split("\n")[0])
+def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.ArgumentParser
+                 ) -> argparse.ArgumentParser:
+    """The parser of ``python -m e2vlib.experiments.real_objects``; ``parser_class`` makes
+    its errors (:class:`e2vlib.experiments.errors.Parser`'s are one line)."""
+    parser = parser_class(prog="python -m e2vlib.experiments.real_objects",
+                          description=__doc__.split("\n")[0])
     parser.add_argument("step", choices=["download", "extract", "candidates", "grids",
                                          "sheets", "review", "catalogue", "samples",
                                          "study", "ship"])
@@ -109,7 +108,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="study: one object per category and split, 32 px, 1 epoch")
     parser.add_argument("--table", action="store_true",
                         help="study: only print the recorded table")
-    args = parser.parse_args(argv)
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error instead of one line")
+    return parser
+
+
+def run_step(args: argparse.Namespace, argv: list[str]) -> int:
+    """Run one parsed step (``argv``: its command line, recorded by ``study``); prints what
+    it did and the seconds it took; returns the exit status (0)."""
     data = Path(DATA_DIR)
     if args.out is None and args.step != "ship":
         args.out = data
@@ -134,13 +140,37 @@ def main(argv: list[str] | None = None) -> int:
     elif args.step == "samples":
         build_samples(args.cache, args.out, only=args.only, limit=args.limit)
     elif args.step == "ship":
-        from e2vlib.experiments.real_objects.ship import SHIP_DIR, ship_samples
+        from e2vlib.experiments.errors import UsageError
+        from e2vlib.experiments.real_objects.ship import SHIP_DIR, check_ship_out, ship_samples
 
-        print(ship_samples(data, args.out or Path(SHIP_DIR)))
+        out = args.out or Path(SHIP_DIR)
+        try:  # a bad --out is a bad command line (exit status 2)
+            check_ship_out(data, out)
+        except (ValueError, OSError) as err:
+            raise UsageError(str(err)) from None
+        print(ship_samples(data, out))
     elif args.step == "study":
-        _study(args, argv if argv is not None else sys.argv[1:])
+        _study(args, argv)
     print(f"{args.step}: {time.monotonic() - start:.0f} s", file=sys.stderr)
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run one recorded step (``argv``: the command line after the module name, default
+    ``sys.argv[1:]``); returns the exit status. Errors are one line on stderr naming the
+    file (exit status 1; 2 for a bad command line), as ``python -m e2vlib``'s
+    (:func:`e2vlib.experiments.errors.run`); ``--debug`` shows the traceback."""
+    from e2vlib.experiments import errors
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    recorded = [a for a in argv if a != "--debug"]
+
+    def build() -> argparse.ArgumentParser:
+        parser = build_parser(errors.Parser)
+        parser.set_defaults(func=lambda args: run_step(args, recorded))
+        return parser
+
+    return errors.run(build, argv)
 
 
 if __name__ == "__main__":

@@ -24,8 +24,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from e2vlib.experiments.real_meshes.catalogue import RealMeshError
-from e2vlib.experiments.real_meshes.mapping import id_and_category_problems
+from e2vlib.experiments.real_meshes.mapping import id_and_category_problems, read_reviewed_csv
 from e2vlib.experiments.real_meshes.meshes import POSES
+from e2vlib.experiments.real_objects.sources import MEMBER_SEP
 
 CATALOGUE_CSV = Path(__file__).resolve().parents[3] / "experiments" / "real_objects" / \
     "catalogue.csv"
@@ -73,12 +74,42 @@ def _rotation_ok(text: str) -> bool:
         re.fullmatch(r"[xyz]-?(90|180|270)", t) for t in text.split())
 
 
+def path_problem(path: str) -> str | None:
+    """What is wrong with a row's ``path`` (None: nothing): it names a file inside its
+    package's folder, ``archive`` or ``archive::member`` (a zip member, or a Sweet Home 3D
+    entry), each part relative and plain: not empty, not absolute, no ``..``, no drive.
+
+    Examples
+    --------
+    >>> path_problem("cars/p406.acc"), path_problem("z.zip::models/x.ac")
+    (None, None)
+    >>> path_problem("/etc/passwd")
+    "path '/etc/passwd' is absolute; give it relative to its package's folder"
+    >>> path_problem("z.zip::../../x.ac")
+    "path 'z.zip::../../x.ac' climbs out with '..'; give a plain path inside its package"
+    """
+    parts = path.split(MEMBER_SEP)
+    if len(parts) > 2 or not all(part.strip() for part in parts):
+        return (f"path {path!r} is not 'file' or 'archive{MEMBER_SEP}member' with both parts "
+                "named")
+    for part in parts:
+        steps = re.split(r"[/\\]", part)
+        if part.startswith(("/", "\\")) or re.match(r"[A-Za-z]:", part):
+            return f"path {path!r} is absolute; give it relative to its package's folder"
+        if ".." in steps:
+            return f"path {path!r} climbs out with '..'; give a plain path inside its package"
+        if "\x00" in part:
+            return f"path {path!r} holds a NUL character"
+    return None
+
+
 def check_catalogue(rows: Iterable[dict], where: str = "catalogue.csv") -> list[RealObject]:
     """Check catalogue rows (dicts of :data:`FIELDS`) and return them as
     :class:`RealObject`; raises :class:`RealMeshError` naming ``where`` and each bad line:
     missing columns, ids that are not unique plain names starting with their category, an
-    unknown source, licence or category, a bad rotation, keep not yes/no, a kept row without
-    a split (or a dropped one with one), a note that does not start ``looked:``.
+    unknown source, licence or category, a path that leaves its package
+    (:func:`path_problem`), a bad rotation, keep not yes/no, a kept row without a split (or
+    a dropped one with one), a note that does not start ``looked:``.
 
     Examples
     --------
@@ -107,6 +138,8 @@ line 3: note must start 'looked:' (say what looking at it showed)
             problems.append(f"line {line}: unknown source {row['source']!r}")
         if not row["path"].strip():
             problems.append(f"line {line}: path is empty")
+        elif (problem := path_problem(row["path"])) is not None:
+            problems.append(f"line {line}: {problem}")
         if row["licence"] not in LICENCES:
             problems.append(f"line {line}: licence {row['licence']!r} is not one of "
                             f"{', '.join(LICENCES)}")
@@ -133,27 +166,13 @@ line 3: note must start 'looked:' (say what looking at it showed)
 
 def read_catalogue(path: str | os.PathLike = CATALOGUE_CSV, kept_only: bool = True
                    ) -> list[RealObject]:
-    """The catalogue at ``path``, checked (:func:`check_catalogue`); kept rows only by
+    """The catalogue at ``path``, read as every reviewed table is
+    (:func:`~e2vlib.experiments.real_meshes.mapping.read_reviewed_csv`) and checked
+    (:func:`check_catalogue`: each row's path inside its package); kept rows only by
     default. Raises FileNotFoundError or :class:`RealMeshError` naming the file."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"catalogue {path} not found; the committed one is "
-                                "experiments/real_objects/catalogue.csv")
-    if path.stat().st_size > MAX_CATALOGUE_BYTES:
-        raise RealMeshError(f"{path}: larger than MAX_CATALOGUE_BYTES ({MAX_CATALOGUE_BYTES})")
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise RealMeshError(f"{path}: not UTF-8 text; save it as UTF-8 CSV") from None
-    reader = csv.DictReader(io.StringIO(text, newline=""))
-    try:
-        if tuple(reader.fieldnames or ()) != FIELDS:
-            raise RealMeshError(f"{path}: columns must be {', '.join(FIELDS)}, got "
-                                f"{reader.fieldnames}")
-        rows = check_catalogue(list(reader), str(path))
-    except csv.Error as err:
-        raise RealMeshError(f"{path} line {reader.line_num}: not a CSV row ({err})") from None
-    return [r for r in rows if r.keep or not kept_only]
+    rows = read_reviewed_csv(path, FIELDS, MAX_CATALOGUE_BYTES, "catalogue",
+                             "experiments/real_objects/catalogue.csv")
+    return [r for r in check_catalogue(rows, str(path)) if r.keep or not kept_only]
 
 
 def assign_splits(ids_by_category: dict[str, list[str]],

@@ -15,11 +15,11 @@ the label (128^3 for 32^3 labels) it
    the surface lies beyond it in at least :data:`VOTES` of the six axis directions (so an
    opening on one side does not empty the inside, while open space beside a part, with
    nothing beyond it on two sides or more, stays empty);
-4. comes down to the label grid as :func:`voxelize` rules: a voxel is set when its centre
-   is inside (judged from the fine cells around it, those the surface passes through
-   counting half), or when solid fine cells of it lie more than half a voxel from every
-   such voxel (thin parts: legs, panels, wings
-   thinner than a voxel), and cavities are filled.
+4. comes down to the label grid (:func:`coarse_solid`) as :func:`voxelize` rules: a voxel
+   is set when its centre is inside (judged from the fine cells around it, those the
+   surface passes through counting half), or when solid fine cells of it lie more than half
+   a voxel from every such voxel (thin parts: legs, panels, wings thinner than a voxel), and
+   cavities are filled.
 
 A surface with no inside at all (a flat plane) keeps just its shell. What step 3 found is
 the sample's ``fill``: ``enclosed`` (something closed), ``voted`` (the inside of an open
@@ -147,8 +147,8 @@ def fine_solid(surface: np.ndarray, close: int = CLOSE_CELLS, votes: int = VOTES
     return solid, closed, fill
 
 
-def downsample(fine: np.ndarray, shell: np.ndarray, factor: int = FACTOR,
-               near: int | None = None) -> np.ndarray:
+def coarse_solid(fine: np.ndarray, shell: np.ndarray, factor: int = FACTOR,
+                 near: int | None = None) -> np.ndarray:
     """A fine solid brought down ``factor`` times (step 4). A voxel is set when its centre
     is inside: the mean over the ``2 x 2 x 2`` fine cells around its centre, counting a
     solid cell 1 and a cell of the surface ``shell`` (which straddles the surface) 1/2, is
@@ -164,7 +164,7 @@ def downsample(fine: np.ndarray, shell: np.ndarray, factor: int = FACTOR,
     >>> fine[4:12, 4:12, 4:13] = True
     >>> shell = fine & ~np.pad(fine[1:-1, 1:-1, 1:-1], 1)
     >>> fine[0, 0, :] = shell[0, 0, :] = True
-    >>> coarse = downsample(fine, shell)
+    >>> coarse = coarse_solid(fine, shell)
     >>> int(coarse[1:3, 1:3, 1:3].sum()), int(coarse.sum()), coarse[0, 0].tolist()
     (8, 12, [True, True, True, True])
     """
@@ -201,6 +201,6 @@ def solid_labels(mesh: trimesh.Trimesh, resolution: int = paper.GRID_SIDE,
     """
     surface = surface_cells(mesh, resolution * factor)
     solid, closed, fill = fine_solid(surface)
-    grid = downsample(solid, closed, factor)
+    grid = coarse_solid(solid, closed, factor)
     shell = surface.reshape((resolution, factor) * 3).any(axis=(1, 3, 5))
     return grid, {"fill": fill, "surface": int(shell.sum()), "voxels": int(grid.sum())}

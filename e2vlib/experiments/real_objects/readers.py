@@ -162,9 +162,19 @@ def assimp_to_mesh(path: str | os.PathLike, where: str | None = None) -> trimesh
 def read_bytes(root: str | os.PathLike, path: str) -> bytes:
     """The bytes of ``path`` inside the unpacked package ``root`` (``archive::member`` for a
     member of a zip), at most :data:`MAX_MODEL_BYTES`; :class:`RealMeshError` naming it when
-    it is absent, too large or unreadable."""
+    it is absent, too large or unreadable, or when it would read outside ``root`` (an
+    absolute path, ``..``, a link leading out: :func:`~e2vlib.experiments.real_objects.
+    catalogue.path_problem`)."""
+    from e2vlib.experiments.real_objects.catalogue import path_problem
+
+    problem = path_problem(path)
+    if problem is not None:
+        raise RealMeshError(f"{problem} (package folder {root})")
     archive, _, member = path.partition(MEMBER_SEP)
     file = Path(root) / archive
+    if not file.resolve().is_relative_to(Path(root).resolve()):
+        raise RealMeshError(f"{file} leads outside its package folder {root} (a link?); "
+                            "extract the package again")
     if not file.is_file():
         raise RealMeshError(f"{file}: not found; download and extract the package "
                             "(python -m e2vlib.experiments.real_objects download)")

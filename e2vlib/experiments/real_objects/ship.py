@@ -14,7 +14,6 @@ from __future__ import annotations
 import csv
 import json
 import os
-import shutil
 from collections import Counter
 from pathlib import Path
 
@@ -66,35 +65,103 @@ def _attribution(rows: list[RealObject], mapping: dict[str, dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+MAX_SHIP_SAMPLE_BYTES = 16 << 20
+"""Largest sample file shipped, in bytes (a built sample is about 100 kB)."""
+MAX_SHIP_ARRAY_BYTES = 256 << 20
+"""Largest total of a sample's arrays once unpacked, in bytes."""
+
+
+def check_ship_out(data: Path, out: Path) -> None:
+    """Refuse an ``out`` folder that is, holds or lies inside the dataset ``data`` it is
+    shipped from (shipping would rewrite its source), or that is an existing file."""
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"--out {out} is an existing file, not a folder; give a "
+                                 f"folder to ship into (default {SHIP_DIR})")
+    source, target = data.resolve(), out.resolve()
+    if target == source or source.is_relative_to(target) or target.is_relative_to(source):
+        how = ("is" if target == source else "holds" if source.is_relative_to(target)
+               else "lies inside")
+        raise ValueError(f"--out {out} {how} the dataset {data} it ships from; shipping "
+                         f"would rewrite its source: give another folder (default {SHIP_DIR})")
+
+
+def read_sample(data: Path, sample_id: str, sha256: str) -> bytes:
+    """The bytes of ``data/samples/<sample_id>.npz``, checked before anything is copied: a
+    regular file inside ``data`` (no link leaving it, no FIFO or device), at most
+    :data:`MAX_SHIP_SAMPLE_BYTES`, arrays of at most :data:`MAX_SHIP_ARRAY_BYTES`, whose
+    digest (:func:`~e2vlib.data.manifest.npz_digest`) is the manifest's ``sha256``.
+    ValueError naming the file and the fix otherwise."""
+    import io
+    import zipfile
+
+    from e2vlib.data.checks import inside
+    from e2vlib.data.manifest import npz_digest
+    from e2vlib.files import read_bounded
+
+    path = data / "samples" / f"{sample_id}.npz"
+    inside(data.resolve(), path)  # a link out of the dataset is refused
+    content = read_bounded(path, "sample", MAX_SHIP_SAMPLE_BYTES)
+    rebuild = "rebuild it with `make real-data`"
+    try:
+        with zipfile.ZipFile(io.BytesIO(content)) as zf:
+            unpacked = sum(info.file_size for info in zf.infolist())
+    except zipfile.BadZipFile:
+        raise ValueError(f"sample {path} is not an .npz file; {rebuild}") from None
+    if unpacked > MAX_SHIP_ARRAY_BYTES:
+        raise ValueError(f"sample {path} unpacks to {unpacked} bytes, more than "
+                         f"MAX_SHIP_ARRAY_BYTES ({MAX_SHIP_ARRAY_BYTES}); {rebuild}")
+    if not sha256:
+        raise ValueError(f"{data / 'manifest.csv'} records no sha256 for {sample_id}; "
+                         f"{rebuild}")
+    try:
+        digest = npz_digest(io.BytesIO(content))
+    except ValueError:
+        raise ValueError(f"sample {path} is a damaged .npz file; {rebuild}") from None
+    if digest != sha256:
+        raise ValueError(f"sample {path} does not match its digest in {data / 'manifest.csv'}"
+                         f" (sha256 {digest[:12]}..., recorded {sha256[:12]}...); {rebuild}")
+    return content
+
+
 def ship_samples(data: str | os.PathLike = DATA_DIR,
                  out: str | os.PathLike = SHIP_DIR,
                  catalogue: str | os.PathLike = CATALOGUE_CSV) -> dict[str, int]:
     """Copy the shippable rows' samples from ``data`` into ``out`` with a manifest, the
-    build settings and ATTRIBUTION.md; return the count per split. Every file is written
-    to a temporary name and renamed; a row missing from ``data`` is refused, naming it."""
+    build settings and ATTRIBUTION.md; return the count per split.
+
+    Every sample is read and checked (:func:`read_sample`: a regular file inside ``data``,
+    bounded, its digest the manifest's) before anything is written; every file is then
+    written to a temporary name and renamed. A row missing from ``data``, an ``out`` that
+    is, holds or lies in ``data`` or is a file (:func:`check_ship_out`) are refused."""
+    from e2vlib.data.checks import inside, read_config, read_manifest_rows
     from e2vlib.experiments.real_meshes import MAPPING_CSV
 
     data, out = Path(data), Path(out)
     if not (data / "manifest.csv").is_file():
         raise FileNotFoundError(f"{data} holds no real-object dataset; build it with "
                                 "`make real-data`")
+    check_ship_out(data, out)
     rows = shippable_rows(read_catalogue(catalogue))
-    with open(data / "manifest.csv", newline="") as f:
-        built = {r["id"]: r for r in csv.DictReader(f)}
+    inside(data.resolve(), data / "manifest.csv")
+    inside(data.resolve(), data / "config.json")
+    built = {r["id"]: r for r in read_manifest_rows(data)}
     missing = [row.id for row in rows if row.id not in built]
     if missing:
         raise ValueError(f"{len(missing)} shippable rows are not built in {data} "
                          f"({', '.join(missing[:3])}, ...); run `make real-data` first")
+    stored = read_config(data)
+    content = {row.id: read_sample(data, row.id, built[row.id].get("sha256", ""))
+               for row in rows}
     with open(MAPPING_CSV, newline="") as f:
         mapping = {r["id"]: r for r in csv.DictReader(f)}
     (out / "samples").mkdir(parents=True, exist_ok=True)
     for row in rows:
         with atomic_path(out / "samples" / f"{row.id}.npz") as partial:
-            shutil.copyfile(data / "samples" / f"{row.id}.npz", partial)
-    stored = json.loads((data / "config.json").read_text())
+            partial.write_bytes(content[row.id])
+    source = stored.get("source") if isinstance(stored.get("source"), dict) else {}
     config = {**{k: v for k, v in stored.items() if k != "source"},
               "source": {"catalogue": "experiments/real_objects/catalogue.csv",
-                         "catalogue_sha256": stored.get("source", {}).get("catalogue_sha256"),
+                         "catalogue_sha256": source.get("catalogue_sha256"),
                          "licences": list(SHIPPABLE), "command": SHIP_COMMAND}}
     with atomic_path(out / "config.json") as partial:
         partial.write_text(json.dumps(config, indent=1) + "\n")

@@ -28,7 +28,6 @@ object (:func:`paired_with`). Command: ``python -m e2vlib.experiments.real_objec
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import tempfile
@@ -314,13 +313,15 @@ def run_real_objects(configs: Sequence[str] = MAIN, seeds: Sequence[int] = (0, 1
                 "quick_epochs": 1 if quick else None}
     results = read_results(path) or {"study": "real_objects", "question": QUESTION,
                                      "protocol": protocol, "runs": []}
-    if results["protocol"] != protocol:
-        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
+    if results.get("protocol") != protocol:
+        raise ValueError(f"{path} holds runs of another protocol ({results.get('protocol')}); "
                          "use another --out folder")
     if results.get("test_ids", test_ids) != test_ids:
         raise ValueError(f"{path} scored other test objects than {real} holds now; move it "
                          "away to start the study afresh")
-    manifest = json.loads((Path(real) / "config.json").read_text()).get("source", {})
+    from e2vlib.data.checks import read_config
+
+    manifest = read_config(real).get("source", {})
     results.update(test_ids=test_ids, test_categories=list(sets["real"]["test"].categories),
                    configs={n: {**asdict(c), "train": list(c.train)} for n, c in CONFIGS.items()},
                    catalogue_sha256=manifest.get("catalogue_sha256"))
@@ -403,6 +404,60 @@ def summarize(results: dict, key: str = "iou@val_threshold") -> dict:
             c: float(np.mean([v for v, k in zip(values, categories, strict=True) if k == c]))
             for c in paper.CATEGORIES if c in categories}
     return out
+
+
+TABLE_KEYS = ("iou@0.3", "iou@val_threshold")
+"""The per-object scores the recorded table shows."""
+
+
+def _per_object_problem(scores: object, n: int, where: str) -> str | None:
+    """What is wrong with a record's ``per_object`` scores (None: nothing): each of
+    :data:`TABLE_KEYS` a list of ``n`` finite fractions."""
+    if not isinstance(scores, dict):
+        return f"{where}.per_object is not a mapping of scores to lists"
+    for key in TABLE_KEYS:
+        values = scores.get(key)
+        if not isinstance(values, list) or len(values) != n:
+            return (f"{where}.per_object.{key} is not a list of {n} scores (one per test "
+                    "object)")
+        bad = next((v for v in values if isinstance(v, bool)
+                    or not isinstance(v, (int, float)) or not 0 <= v <= 1), None)
+        if bad is not None:
+            return f"{where}.per_object.{key} holds {bad!r}, not a score in [0, 1]"
+    return None
+
+
+def read_table(path: str | os.PathLike) -> dict:
+    """The recorded ``real_objects`` study at ``path`` as :func:`format_table` reads it:
+    through the one checked reader (:func:`~e2vlib.experiments.runner.read_results`:
+    regular file, size bound, strict JSON, every record), then each record's and
+    baseline's per-object scores (:data:`TABLE_KEYS`: one finite fraction per test object).
+    Raises ValueError (FileNotFoundError when missing) naming the file and the fix."""
+    path = Path(path)
+    results = read_results(path, "real_objects")
+    if results is None:
+        raise FileNotFoundError(f"no recorded real_objects study at {path}; run `{COMMAND}`")
+    categories = results.get("test_categories")
+    if not isinstance(categories, list) or not categories or any(
+            c not in paper.CATEGORIES for c in categories):
+        raise ValueError(f"{path}: test_categories is not a list of the paper's categories; "
+                         f"restore the file from git or rerun `{COMMAND}`")
+    baselines = results.get("baselines", {})
+    if not isinstance(baselines, dict):
+        raise ValueError(f"{path}: baselines is not a mapping of names to scores; restore "
+                         f"the file from git or rerun `{COMMAND}`")
+    places = [(f"run {i} ({r['config']} seed {r['seed']})", r)
+              for i, r in enumerate(results["runs"], 1)]
+    places += [(f"baselines.{name}", base) for name, base in baselines.items()]
+    for where, record in places:
+        problem = (_per_object_problem(record.get("per_object"), len(categories), where)
+                   if isinstance(record, dict) else f"{where} is not a record")
+        if problem:
+            raise ValueError(f"{path}: {problem}; restore the file from git or rerun "
+                             f"`{COMMAND}`")
+    if not results["runs"] and not baselines:
+        raise ValueError(f"{path} holds no run and no baseline; run `{COMMAND}`")
+    return results
 
 
 def format_table(results: dict, key: str = "iou@val_threshold") -> str:

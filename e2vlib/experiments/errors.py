@@ -1,6 +1,10 @@
-"""How the command line fails: one line on stderr, exit status 2 for a bad argument, 1 for a
+"""How a command fails: one line on stderr, exit status 2 for a bad argument, 1 for a
 failure, and the loop that runs a command line (:func:`run`); ``--debug`` shows the
 traceback instead.
+
+``python -m e2vlib`` (:mod:`e2vlib.cli`) and the lab's own commands
+(``python -m e2vlib.experiments.real_study``, ``.shipping``, ``.real_objects``) fail through
+it alike. It imports nothing of e2vlib, so it sits in the lab and both may import it.
 """
 
 from __future__ import annotations
@@ -46,7 +50,7 @@ class Parser(argparse.ArgumentParser):
     >>> parser.parse_args(["--n", "x"])
     Traceback (most recent call last):
     ...
-    e2vlib.cli.errors.UsageError: argument --n: invalid int value: 'x' (see demo --help)
+    e2vlib.experiments.errors.UsageError: argument --n: invalid int value: 'x' (see demo --help)
     """
 
     def error(self, message: str):  # argparse's hook for every parsing error
