@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,414 lines)::
+Module map (``python tools/module_map.py --write``; 24,416 lines)::
 
-    lines per band: core 14,452 · speed and scale 1,197 · lab 7,429 · command line 1,336
+    lines per band: core 14,498 · speed and scale 1,155 · lab 7,427 · command line 1,336
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -77,10 +77,10 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
       telephones.py        307  Procedural telephones in five sub-types (TELEPHONE_KINDS) ...
       vehicles.py          409  Procedural category builders
     simulate.py            446  Turn a video into events with the ESIM model of an event camera
-    train/                 839  Training and evaluation of E2V
+    train/                 885  Training and evaluation of E2V
       devices.py            36  Where training runs: resolve_device picks the device
       evaluation.py        176  Predictions and the Pix2Vox evaluation protocol
-      loop.py              356  The training loop, fit, and the pieces it is made of
+      loop.py              409  The training loop, fit, and the pieces it is made of
       recipes.py           213  Training recipes (optimizer settings and epochs) and their ...
     viz/                  1302  Pictures of events, frames, voxels and meshes
       animation.py          70  Matplotlib animations of frame stacks, shown as ...
@@ -91,13 +91,13 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
       style.py              24  The lessons' colours and default views
       widgets.py           192  Widgets around a matplotlib picture that still shows where ...
     voxels.py              472  Occupancy grids
-    scale/                1197  Speed and scale
+    scale/                1155  Speed and scale
       frames_numba.py      358  Frames from events with compiled (numba) kernels
       options.py             7  The choices of fit_at_scale's options, importable without ...
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
-      training.py          401  Training at scale
-    experiments/          7429  The lab
+      training.py          359  Training at scale
+    experiments/          7427  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
       explore.py           246  A dataset explorer
@@ -126,7 +126,7 @@ Module map (``python tools/module_map.py --write``; 24,414 lines)::
       real_study.py        411  Scoring on real meshes
       reconstruct.py       274  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           246  Recorded results, read the same way by every lesson
-      runner.py            507  Running studies
+      runner.py            505  Running studies
       shipping.py           96  Ship one recorded run's model
       studies.py           170  The studies
       summary.py           165  A study's results as numbers

@@ -4,7 +4,7 @@ Everything here sits above core and speed-and-scale and is never imported by the
 09-13 and the command line use it. A *study* is a question (which event representation? how
 many frames? which encoder? which loss?) and a set of named *configs*, each a small dict of
 what differs from the study's :class:`Protocol`. :func:`run_study` trains and evaluates every
-(config, seed) with :func:`e2vlib.scale.training.fit_at_scale` and scores it with
+(config, seed) with :func:`e2vlib.train.fit` and scores it with
 :func:`e2vlib.metrics.score_split`, and appends one record per run to ``OUT/STUDY.json``
 (written atomically after every run); runs already recorded are skipped, so an interrupted
 study resumes where it stopped. :func:`summarize` turns a results file into mean, standard

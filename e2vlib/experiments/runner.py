@@ -58,8 +58,7 @@ def run_one(protocol: Protocol, seed: int, device: str = "auto", workdir: Path |
     from e2vlib.inputs import input_channels
     from e2vlib.metrics import iou, score_split
     from e2vlib.model import build_e2v, load_checkpoint
-    from e2vlib.scale.training import fit_at_scale
-    from e2vlib.train import predict, resolve_device
+    from e2vlib.train import fit, predict, resolve_device
 
     torch.set_num_threads(protocol.threads)
     train = load_split(protocol, "train", progress)
@@ -72,10 +71,9 @@ def run_one(protocol: Protocol, seed: int, device: str = "auto", workdir: Path |
     model = build_e2v(protocol.preset, seed=seed, input_shape=shape, **overrides)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         started = time.perf_counter()
-        # fit_at_scale: some studies' recipes set the rate every step (per_step)
-        history = fit_at_scale(model, train, val, tmp, recipe=protocol.recipe,
-                               epochs=protocol.run_epochs, device=device, seed=seed,
-                               loss=protocol.loss, progress=progress)
+        history = fit(model, train, val, tmp, recipe=protocol.recipe,
+                      epochs=protocol.run_epochs, device=device, seed=seed,
+                      loss=protocol.loss, progress=progress)
         train_seconds = time.perf_counter() - started
         best = load_checkpoint(Path(tmp) / "best.pt")
         if keep_checkpoint is not None:
