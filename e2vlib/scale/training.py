@@ -138,11 +138,12 @@ class ScaleHooks(FitHooks):
         self.channels_last = bool(channels_last)
         self.rank, self.world = _distributed()
         self.saves = self.rank == 0
-        self.model: nn.Module | None = None
+        self.model: nn.Module | None = None  # set by start, with the device it trains on
+        self.device = torch.device("cpu")
         self.where = (0, 0)  # (epoch, step) of the step under way, both from 0
 
     def start(self, model, optimizer, out_dir, data_config):
-        self.model = model
+        self.model, self.device = model, model_device(model)
         if self.channels_last:
             to_channels_last(model)
         history, best_iou = [], -1.0
@@ -150,8 +151,7 @@ class ScaleHooks(FitHooks):
             history, best_iou = _restore(out_dir / "last.pt", model, optimizer, data_config,
                                          self.loss)
         net = model if self.world == 1 else nn.parallel.DistributedDataParallel(
-            model, device_ids=[model_device(model).index]
-            if model_device(model).type == "cuda" else None)
+            model, device_ids=[self.device.index] if self.device.type == "cuda" else None)
         return net, history, best_iou
 
     def begin_step(self, epoch, step, batch):
@@ -162,8 +162,7 @@ class ScaleHooks(FitHooks):
         return mine if len(mine) else batch[:1]
 
     def autocast(self):
-        device = model_device(self.model)
-        return torch.autocast(device.type, dtype=torch.bfloat16,
+        return torch.autocast(self.device.type, dtype=torch.bfloat16,
                               enabled=self.precision == "bf16")
 
     def after_backward(self):
