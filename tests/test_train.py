@@ -11,7 +11,7 @@ import torch
 from e2vlib import paper
 from e2vlib.inputs import TensorSet
 from e2vlib.losses import make_loss
-from e2vlib.metrics import format_table, score_predictions
+from e2vlib.metrics import format_category_table, score_predictions
 from e2vlib.model import CheckpointError, build_e2v, load_checkpoint, read_checkpoint
 from e2vlib.model.checkpoint import slim_checkpoint
 from e2vlib.scale.training import bf16_is_fast, fit_at_scale, to_channels_last
@@ -165,7 +165,7 @@ def test_evaluate_reports_protocol_and_baselines():
     # the category-mean oracle knows each toy category's single shape exactly
     assert result["baseline_category_mean"]["iou@0.3"] == pytest.approx(1.0)
     assert result["baseline_mean_shape"]["iou@0.5"] < 1.0
-    assert "overall" in format_table(result) and "chair" in format_table(result)
+    assert "overall" in format_category_table(result) and "chair" in format_category_table(result)
 
 
 def _ddp_worker(rank, world, init_file, out_dir):

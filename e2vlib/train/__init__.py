@@ -32,7 +32,7 @@ modules, each with one job:
 those two, ``loop`` all three; none imports this ``__init__``. A split held in memory
 (:class:`~e2vlib.inputs.TensorSet`, :func:`~e2vlib.inputs.preload`) lives in
 :mod:`e2vlib.inputs`; the score tables (:func:`~e2vlib.metrics.score_predictions`,
-:func:`~e2vlib.metrics.format_scores`) in :mod:`e2vlib.metrics`.
+:func:`~e2vlib.metrics.format_category_table`) in :mod:`e2vlib.metrics`.
 
 Introduced in notebooks/06_training.ipynb and notebooks/07_evaluation.ipynb.
 """
