@@ -130,6 +130,8 @@ OBJECT_KEY = ("id",)
 LOCK_TIMEOUT_S = 120.0
 """Seconds a writer waits for another process's hold on a results folder (a hold lasts one
 read, merge and write of a results file) before it gives up with a message."""
+LOCK_FILE = ".e2v-results.lock"
+"""The file in a results folder that :func:`results_lock` locks (empty; it may stay)."""
 FRACTION = re.compile(r"[.:_](iou|fscore)@|[.:]val_threshold$")
 """Scores that are fractions in [0, 1], by their dotted name in a record: IoU and F-score at
 any threshold (also per category, or of other test data: ``metrics.low:iou@0.3``) and the
@@ -270,30 +272,19 @@ def read_results(path: str | os.PathLike, study: str | None = None) -> dict | No
 
 @contextmanager
 def results_lock(folder: Path, timeout_s: float = LOCK_TIMEOUT_S) -> Iterator[None]:
-    """Hold an exclusive lock on ``folder`` (``fcntl.flock`` on the folder itself, so
-    nothing is left on disk): writers of the results files in one folder take turns.
-    Without ``fcntl`` (Windows) nothing is locked."""
+    """Hold an exclusive lock on the results folder ``folder``: writers of the results files
+    in one folder take turns. The lock is ``filelock``'s on :data:`LOCK_FILE` in the folder
+    (an OS lock on Linux, macOS and Windows, released when the holder exits or crashes;
+    where the OS has none, a lock file), so every operating system locks, not only Unix."""
+    from filelock import FileLock, Timeout
+
     try:
-        import fcntl
-    except ImportError:  # no advisory locks: one writer at a time is then the user's care
-        yield
-        return
-    fd = os.open(folder, os.O_RDONLY)
-    try:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except BlockingIOError:
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"another process has held the results folder {folder} "
-                                       f"for over {timeout_s:.0f} s (LOCK_TIMEOUT_S); let it "
-                                       "finish, or stop it") from None
-                time.sleep(0.05)
-        yield
-    finally:
-        os.close(fd)  # closing releases the lock
+        with FileLock(Path(folder) / LOCK_FILE, timeout=timeout_s):
+            yield
+    except Timeout:
+        raise TimeoutError(f"another process has held the results folder {folder} for over "
+                           f"{timeout_s:.0f} s (LOCK_TIMEOUT_S); let it finish, or stop it"
+                           ) from None
 
 
 def _run_id(run: dict, key: Sequence[str]) -> tuple:
