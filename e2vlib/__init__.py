@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,293 lines)::
+Module map (``python tools/module_map.py --write``; 24,284 lines)::
 
-    lines per band: core 14,389 · speed and scale 1,154 · lab 7,416 · command line 1,334
+    lines per band: core 14,389 · speed and scale 1,154 · lab 7,407 · command line 1,334
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -97,7 +97,7 @@ Module map (``python tools/module_map.py --write``; 24,293 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          358  Training at scale
-    experiments/          7416  The lab
+    experiments/          7407  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
       explore.py           246  A dataset explorer
@@ -126,7 +126,7 @@ Module map (``python tools/module_map.py --write``; 24,293 lines)::
       real_study.py        411  Scoring on real meshes
       reconstruct.py       274  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           246  Recorded results, read the same way by every lesson
-      runner.py            505  Running studies
+      runner.py            496  Running studies
       shipping.py           96  Ship one recorded run's model
       studies.py           170  The studies
       summary.py           165  A study's results as numbers
