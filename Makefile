@@ -16,6 +16,7 @@ $(STAMP): environment/requirements.txt pyproject.toml
 	$(PY) -m pip install -r environment/requirements.txt
 	$(PY) -m pip install --no-deps --no-build-isolation -e .
 	$(PY) -m ipykernel install --sys-prefix --name python3 --display-name "Python 3 (e2v)"
+	$(PY) tools/warm_caches.py
 	touch $(STAMP)
 
 lab: $(STAMP)

@@ -25,8 +25,8 @@ from common import machine, spread, timeit, write_section  # noqa: E402
 from e2vlib.data import E2VDataset  # noqa: E402
 from e2vlib.inputs import preload
 from e2vlib.model import build_e2v, load_checkpoint, read_checkpoint  # noqa: E402
-from e2vlib.scale.training import bf16_is_fast, to_channels_last  # noqa: E402
-from e2vlib.train import evaluate  # noqa: E402
+from e2vlib.scale.training import ScaleHooks, bf16_is_fast  # noqa: E402
+from e2vlib.train import evaluate, train_step  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data_small"
@@ -60,27 +60,20 @@ SPEED_OPTIONS = {
 def training_step(batch: int = 16, precision: str = "fp32", channels_last: bool = False,
                   compiled: bool = False, preset: str = "tiny", loss: str = "bce"):
     """One training step of ``preset`` with ``loss`` on a batch of data_small's real frames,
-    as ``fit_at_scale`` runs it, as a function of no arguments."""
+    as ``fit_at_scale`` runs it (``train_step`` with its hooks), as a function of no
+    arguments."""
     from e2vlib.losses import make_loss
 
     data = preload(E2VDataset(DATA, "train"))
     model = build_e2v(preset, seed=0).train()
-    if channels_last:
-        to_channels_last(model)
-    net = torch.compile(model) if compiled else model
     optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
+    hooks = ScaleHooks(precision=precision, channels_last=channels_last)
+    net, _, _ = hooks.start(model, optimizer, DATA, None)  # channels-last weights, no resume
+    net = torch.compile(net) if compiled else net
     loss_fn = make_loss(loss)
     x = data.frames[:batch].float()
     y = data.voxels[:batch].float()
-
-    def step():
-        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=precision == "bf16"):
-            logits = net(x)
-        optimizer.zero_grad(set_to_none=True)
-        loss_fn(logits.float(), y).backward()
-        optimizer.step()
-
-    return step
+    return lambda: train_step(net, optimizer, loss_fn, x, y, hooks)
 
 
 def training_rate(batch: int = 16, steps: int = 6, **options) -> dict:

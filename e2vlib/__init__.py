@@ -24,35 +24,35 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,078 lines)::
+Module map (``python tools/module_map.py --write``; 24,948 lines)::
 
-    lines per band: core 14,774 · speed and scale 1,199 · lab 7,890 · command line 1,215
+    lines per band: core 14,711 · speed and scale 1,156 · lab 7,868 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
-    data/                 2043  Datasets
-      build.py             253  Building a dataset
-      checks.py            280  A dataset folder is untrusted input
+    data/                 1994  Datasets
+      build.py             254  Building a dataset
+      checks.py            202  A dataset folder is untrusted input
       commands.py           84  The python -m e2vlib make-data command lines that build (or ...
       config.py            271  Build settings
       dataset.py           281  Reading a dataset
-      grey.py              185  Grey video at the event frames' times (make-data --grey-video)
-      manifest.py          135  ROOT/manifest.csv
+      grey.py              167  Grey video at the event frames' times (make-data --grey-video)
+      manifest.py          198  ROOT/manifest.csv
       plan.py              120  Sample planning
-      samples.py           213  One sample
+      samples.py           214  One sample
       synthevox3d.py       117  The authors' released SynthEVox3D layout
     events.py              325  Event streams as numpy structured arrays, and their validation
     files.py               200  Crash-safe file writing
     frames.py              383  Event representations
     geometry.py            495  Geometry baselines without learning
-    inputs/                493  Model inputs
-      representations.py   306  Model inputs from events
+    inputs/                454  Model inputs
+      representations.py   269  Model inputs from events
       tensors.py           148  A split held in memory
     io.py                  635  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                2014  The E2V model
-      checkpoint.py        387  E2V checkpoint files
-      config.py            321  E2V's configuration
+    model/                1995  The E2V model
+      checkpoint.py        377  E2V checkpoint files
+      config.py            318  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          274  E2V's encoders
       integrity.py         235  Is a checkpoint intact
@@ -63,7 +63,7 @@ Module map (``python tools/module_map.py --write``; 25,078 lines)::
     orbit.py               444  The camera orbit's clock and geometry, numpy only
     paper.py               291  The paper's facts as named constants, and our documented ...
     render.py              260  Render the paper's spiral camera orbit around an object into ...
-    shapes/               3028  Objects to reconstruct
+    shapes/               3026  Objects to reconstruct
       builders.py          128  The category -> builder table, make_shape (the procedural ...
       cabinets.py          324  Procedural cabinets in five sub-types (CABINET_KINDS), the ...
       devices.py           165  Procedural category builder: the rifle
@@ -78,10 +78,10 @@ Module map (``python tools/module_map.py --write``; 25,078 lines)::
       telephones.py        307  Procedural telephones in five sub-types (TELEPHONE_KINDS) ...
       vehicles.py          409  Procedural category builders
     simulate.py            446  Turn a video into events with the ESIM model of an event camera
-    train/                 839  Training and evaluation of E2V
+    train/                 885  Training and evaluation of E2V
       devices.py            36  Where training runs: resolve_device picks the device
       evaluation.py        176  Predictions and the Pix2Vox evaluation protocol
-      loop.py              356  The training loop, fit, and the pieces it is made of
+      loop.py              409  The training loop, fit, and the pieces it is made of
       recipes.py           213  Training recipes (optimizer settings and epochs) and their ...
     viz/                  1302  Pictures of events, frames, voxels and meshes
       animation.py          70  Matplotlib animations of frame stacks, shown as ...
@@ -92,13 +92,13 @@ Module map (``python tools/module_map.py --write``; 25,078 lines)::
       style.py              24  The lessons' colours and default views
       widgets.py           192  Widgets around a matplotlib picture that still shows where ...
     voxels.py              472  Occupancy grids
-    scale/                1199  Speed and scale
+    scale/                1156  Speed and scale
       frames_numba.py      358  Frames from events with compiled (numba) kernels
       options.py             7  The choices of fit_at_scale's options, importable without ...
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
-      training.py          403  Training at scale
-    experiments/          7890  The lab
+      training.py          360  Training at scale
+    experiments/          7868  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         159  A study a student runs inside a lesson
       errors.py            129  How a command fails
@@ -128,11 +128,11 @@ Module map (``python tools/module_map.py --write``; 25,078 lines)::
       real_study.py        421  Scoring on real meshes
       reconstruct.py       327  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           240  Recorded results, read the same way by every lesson
-      runner.py            581  Running studies
+      runner.py            570  Running studies
       shipping.py           94  Ship one recorded run's model
       studies.py           170  The studies
       summary.py           167  A study's results as numbers
-    __main__.py             77  Command line
+    __main__.py             75  Command line
     cli/                  1138  The command line's parts: python -m e2vlib (__main__) runs them
       checks.py            365  Checks of command-line values before any work starts
       data_commands.py     166  The dataset commands

@@ -8,7 +8,8 @@ failure; ``--debug`` (anywhere on the command line) shows the traceback instead.
 
 The subcommands live in :mod:`e2vlib.cli` (the parser, the checks, the commands); this
 module runs them and holds ``figures``, since the README's pictures are the top layer that
-only the command line imports. The names it had before the split stay importable here.
+only the command line imports. It exports :func:`main` and :func:`build_parser`; the parts'
+names are imported from :mod:`e2vlib.cli`'s modules.
 """
 
 from __future__ import annotations
@@ -18,9 +19,7 @@ import sys
 from pathlib import Path
 
 from e2vlib.cli import parser
-from e2vlib.cli.checks import DEVICES, PICTURE_TYPES
-from e2vlib.cli.data_commands import DATA_PRESETS
-from e2vlib.experiments.errors import EXIT_FAILURE, EXIT_USAGE, CommandError, UsageError, run
+from e2vlib.experiments.errors import run
 
 
 def _figures(args: argparse.Namespace) -> int:
@@ -70,8 +69,7 @@ train --help)\\n')
     return run(build_parser, argv)
 
 
-__all__ = ["DATA_PRESETS", "DEVICES", "EXIT_FAILURE", "EXIT_USAGE", "PICTURE_TYPES",
-           "CommandError", "UsageError", "build_parser", "main"]
+__all__ = ["build_parser", "main"]
 
 if __name__ == "__main__":
     sys.exit(main())

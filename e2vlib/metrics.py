@@ -310,7 +310,7 @@ def score_table(scores, categories) -> dict:
     :func:`score_predictions`), ``categories`` holds one name per sample.
     Returns ``{"overall": {metric: mean over all samples}, "per_category": {category:
     {metric: mean over its samples, "n": count}}}`` (categories in first-seen order), so
-    :func:`format_table` prints it in the layout of the paper's Tables I and
+    :func:`format_category_table` prints it in the layout of the paper's Tables I and
     II; notebooks/07_evaluation.ipynb uses it for the per-category oracle.
 
     Examples
@@ -373,7 +373,7 @@ def score_split(probabilities, voxels, categories, fscore_points: int = 8192) ->
     return {**score_table(scores, categories), "scores": scores}
 
 
-def format_table(result: dict, categories=None, keys=METRIC_KEYS) -> str:
+def format_category_table(result: dict, categories=None, keys=METRIC_KEYS) -> str:
     """The per-category table of a :func:`score_table` / :func:`score_split` result (or
     :func:`e2vlib.train.evaluate`'s, with its baselines) in the layout of the paper's
     Tables I and II, as text; ``categories`` default to the paper's order.
@@ -381,7 +381,7 @@ def format_table(result: dict, categories=None, keys=METRIC_KEYS) -> str:
     Examples
     --------
     >>> result = score_table({"iou@0.3": [0.25, 0.75]}, ["chair", "chair"])
-    >>> print(format_table(result, keys=("iou@0.3",)))
+    >>> print(format_category_table(result, keys=("iou@0.3",)))
     category        n    iou@0.3
     ----------------------------
     chair           2      0.500

@@ -108,3 +108,53 @@ def test_a_panel_title_gives_the_range_of_seeds_when_configs_differ():
     assert fig.axes[1].get_title() == "recorded study (3 seeds, data_small)"  # only a's row
     fig = classroom.plot_class_study(rows, rows)
     assert fig.axes[1].get_title() == "recorded study (3-5 seeds, data_small)"
+
+
+UNIX_ONLY = ("fcntl", "resource", "termios", "pwd", "grp")
+"""Standard-library modules Windows lacks: a lesson's path must import none of them."""
+
+WITHOUT_UNIX_MODULES = """
+import json, sys
+from pathlib import Path
+for name in {unix_only!r}:
+    sys.modules[name] = None  # `import name` now raises ImportError, as on Windows
+data, out = Path(sys.argv[1]), Path(sys.argv[2])
+
+from e2vlib.experiments import classroom
+from e2vlib.experiments.runner import results_lock, update_results
+
+# a lesson's class study, then a second process's results update of the same folder
+rows = classroom.run_class_study("representation", ["binary"], data, out, quick=True,
+                                 seeds=(0,), progress=False)
+recorded = json.loads((out / "representation.json").read_text())
+later = {{**recorded["runs"][0], "seed": 7}}
+merged = update_results(out / "representation.json", {{**recorded, "runs": [later]}})
+try:  # the lock still excludes: a second holder waits, then gives up
+    with results_lock(out), results_lock(out, timeout_s=0.2):
+        held_twice = True
+except TimeoutError:
+    held_twice = False
+print(json.dumps({{"n": rows[0]["n"], "seeds": [r["seed"] for r in merged["runs"]],
+                  "held_twice": held_twice,
+                  "loaded": sorted(n for n in {unix_only!r} if sys.modules.get(n))}}))
+"""
+
+
+def test_a_class_study_and_a_results_update_run_without_unix_only_modules(class_run,
+                                                                          tmp_path):
+    """Lessons 09-13 run their class studies on Windows too: with fcntl, resource, termios,
+    pwd and grp unimportable, a study runs, records, merges a second writer's run and still
+    locks the results folder."""
+    import json
+    import subprocess
+    import sys
+
+    from .conftest import REPO
+
+    _, data, _ = class_run
+    code = WITHOUT_UNIX_MODULES.format(unix_only=UNIX_ONLY)
+    done = subprocess.run([sys.executable, "-c", code, str(data), str(tmp_path / "results")],
+                          cwd=REPO, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found == {"n": 1, "seeds": [0, 7], "held_twice": False, "loaded": []}

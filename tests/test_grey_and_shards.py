@@ -17,10 +17,10 @@ from e2vlib.data import (
     npz_digest,
     plan_samples,
     read_manifest,
-    rendered_times_us,
     save_sample,
     video_to_grey,
 )
+from e2vlib.orbit import rendered_times_us
 from e2vlib.scale.shards import MergeError, merge_datasets
 
 from .conftest import REPO
@@ -62,7 +62,7 @@ def test_grey_video_is_the_rendered_frame_nearest_each_window_centre(built):
 
     video, t_us = render_orbit(normalize_mesh(make_shape(spec.category, spec.seed)),
                                resolution=16, oversample=1)
-    np.testing.assert_array_equal(t_us, rendered_times_us(GREY))
+    np.testing.assert_array_equal(t_us, rendered_times_us(oversample=GREY.oversample))
     index = grey_frame_indices(GREY)
     centres = (np.arange(100) + 0.5) * GREY.dt_us
     inside = centres <= t_us[-1]

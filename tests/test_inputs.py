@@ -18,7 +18,6 @@ from e2vlib.frames import (
 )
 from e2vlib.inputs import (
     REPRESENTATIONS,
-    events_to_input,
     input_channels,
     orbit_input,
     recording_input,
@@ -65,13 +64,13 @@ def recording():
 
 def test_binary_input_is_exactly_what_data_small_stores(recording):
     events, sensor, stored = recording
-    np.testing.assert_array_equal(events_to_input(events, sensor, "binary"), stored)
+    np.testing.assert_array_equal(orbit_input(events, sensor), stored)
 
 
 def test_every_representation_has_the_documented_shape(recording):
     events, sensor, _ = recording
     for name in REPRESENTATIONS:
-        x = events_to_input(events, sensor, name, frame_size=32, n_frames=20, dt_us=25_000)
+        x = orbit_input(events, sensor, 32, representation=name, n_frames=20, dt_us=25_000)
         expected = (20, 32, 32) if input_channels(name) == 1 else (2, 20, 32, 32)
         assert x.shape == expected, name
         assert np.all(np.isfinite(x)), name
@@ -80,20 +79,20 @@ def test_every_representation_has_the_documented_shape(recording):
 def test_counts_polarity_and_voxel_grid_keep_their_sums(recording):
     events, sensor, _ = recording
     inside = events[events["t"] < 500_000]
-    count = events_to_input(events, sensor, "count")
-    polarity = events_to_input(events, sensor, "polarity")
+    count = orbit_input(events, sensor, representation="count")
+    polarity = orbit_input(events, sensor, representation="polarity")
     assert count.sum() == len(inside)
     np.testing.assert_array_equal(polarity.sum(axis=0), count)
     assert polarity[1].sum() == np.sum(inside["p"] > 0)
-    grid = events_to_input(events, sensor, "voxel_grid")
+    grid = orbit_input(events, sensor, representation="voxel_grid")
     assert grid.sum() == pytest.approx(float(inside["p"].sum()), abs=1e-2)
-    binary = events_to_input(events, sensor, "binary")
+    binary = orbit_input(events, sensor)
     np.testing.assert_array_equal(binary, (count > 0).astype(np.uint8))
 
 
 def test_unknown_representation_is_named():
     with pytest.raises(ValueError, match="unknown representation 'rgb'"):
-        events_to_input(_random_events(), (16, 16), "rgb", frame_size=8)
+        orbit_input(_random_events(), (16, 16), 8, representation="rgb")
 
 
 # --- one home for events -> model input: the old four give what they gave (issue 24) ------------
@@ -101,7 +100,7 @@ def test_unknown_representation_is_named():
 # The reference functions below are the bodies of the four old functions as they were before
 # inputs.orbit_input / recording_input replaced them (older frame functions of data,
 # inputs.events_to_input, explore._frames_at), written out with
-# frames.accumulate / downsample; the new names and the kept old ones must give the same
+# frames.accumulate / downsample; the new names must give the same
 # arrays, dtypes and shapes.
 
 
@@ -197,7 +196,6 @@ def test_orbit_input_gives_the_old_events_to_input(stream, name):
         old = _old_events_to_input(events, (width, height), name, frame_size, 12, 5000, t0)
         _same(orbit_input(events, (width, height), frame_size, representation=name,
                           n_frames=12, dt_us=5000, t0_us=t0), old)
-        _same(events_to_input(events, (width, height), name, frame_size, 12, 5000, t0), old)
 
 
 @pytest.mark.parametrize("stream", list(STREAMS) + list(NON_SQUARE))

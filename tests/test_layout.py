@@ -142,3 +142,12 @@ def test_the_module_map_in_the_package_docstring_and_the_developer_guide_is_curr
     rows = module_map.module_rows()
     assert ("metrics.py", len((PACKAGE / "metrics.py").read_text().splitlines())) in \
         [(name, n) for name, n, _ in rows]
+
+
+def test_the_library_has_one_training_step():
+    """One ``.backward()`` in the library, in ``train.loop.train_step``: the step ``fit`` runs,
+    which the speed and scale band reaches through ``FitHooks`` and never copies."""
+    calls = [f"{path.relative_to(REPO)}:{number}" for path in sorted(PACKAGE.rglob("*.py"))
+             for number, line in enumerate(path.read_text().splitlines(), 1)
+             if ".backward(" in line]
+    assert len(calls) == 1 and calls[0].startswith("e2vlib/train/loop.py:"), calls

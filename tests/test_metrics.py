@@ -148,12 +148,12 @@ def test_category_means():
 
 
 def test_score_table_matches_the_evaluate_layout():
-    from e2vlib.metrics import format_table
+    from e2vlib.metrics import format_category_table
 
     scores = {"iou@0.3": np.array([0.25, 0.75, 0.9]), "fscore@1%": torch.tensor([0.0, 1.0, 0.5])}
     table = score_table(scores, ["chair", "chair", "lamp"])
     assert table["overall"] == {"iou@0.3": pytest.approx(1.9 / 3), "fscore@1%": 0.5}
     assert table["per_category"]["chair"] == {"iou@0.3": 0.5, "fscore@1%": 0.5, "n": 2}
     assert table["per_category"]["lamp"] == {"iou@0.3": 0.9, "fscore@1%": 0.5, "n": 1}
-    text = format_table(table, keys=("iou@0.3", "fscore@1%"))
+    text = format_category_table(table, keys=("iou@0.3", "fscore@1%"))
     assert "chair" in text and "0.500" in text and text.splitlines()[-1].split()[1] == "3"

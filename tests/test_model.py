@@ -12,7 +12,6 @@ from e2vlib import paper
 from e2vlib.model import (
     PAPER_PARAMETERS,
     PRESETS,
-    VOXEL_RESOLUTION,
     BasicBlock,
     Bottleneck,
     Bridge,
@@ -26,6 +25,7 @@ from e2vlib.model import (
     count_parameters,
     parameter_breakdown,
 )
+from e2vlib.model.config import GRID_SIDE
 from e2vlib.model.summary import format_layer_table, layer_table
 
 SMALL = (16, 32, 32)  # a quick input: stem -> 8x16x16, pool -> 4x8x8, ... -> 1x1x1
@@ -264,7 +264,7 @@ def test_public_names_come_from_the_submodules_and_paper_constants():
     assert summary_module.layer_table is layer_table
     # one definition of the paper's numbers
     assert PAPER_PARAMETERS == paper.N_PARAMETERS == 149_155_905
-    assert VOXEL_RESOLUTION == paper.GRID_SIDE == 32
+    assert GRID_SIDE == paper.GRID_SIDE == 32
     assert PRESETS["paper"].input_shape == (paper.N_EVENT_FRAMES, paper.INPUT_SIZE_PX,
                                             paper.INPUT_SIZE_PX)
     assert PRESETS["paper"].depth == paper.RESNET_DEPTH == 152

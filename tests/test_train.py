@@ -11,7 +11,7 @@ import torch
 from e2vlib import paper
 from e2vlib.inputs import TensorSet
 from e2vlib.losses import make_loss
-from e2vlib.metrics import format_table, score_predictions
+from e2vlib.metrics import format_category_table, score_predictions
 from e2vlib.model import CheckpointError, build_e2v, load_checkpoint, read_checkpoint
 from e2vlib.model.checkpoint import slim_checkpoint
 from e2vlib.scale.training import bf16_is_fast, fit_at_scale, to_channels_last
@@ -165,7 +165,7 @@ def test_evaluate_reports_protocol_and_baselines():
     # the category-mean oracle knows each toy category's single shape exactly
     assert result["baseline_category_mean"]["iou@0.3"] == pytest.approx(1.0)
     assert result["baseline_mean_shape"]["iou@0.5"] < 1.0
-    assert "overall" in format_table(result) and "chair" in format_table(result)
+    assert "overall" in format_category_table(result) and "chair" in format_category_table(result)
 
 
 def _ddp_worker(rank, world, init_file, out_dir):
@@ -262,20 +262,20 @@ def test_per_step_schedule_warms_up_then_follows_the_cosine_by_hand():
     assert RECIPES["tiny_step"].per_step and RECIPES["tiny_step"].warmup_steps > 0
 
 
-def test_fit_at_scale_sets_the_rate_every_step_reports_each_step_and_resumes_exactly(
-        tmp_path):
+def test_fit_sets_the_rate_every_step_reports_each_step_and_resumes_exactly(tmp_path):
     # 8 samples in batches of 4: 2 steps per epoch, 6 steps in 3 epochs
     r = Recipe(lr=5e-3, batch_size=4, epochs=3, cosine=True, per_step=True, warmup_steps=2)
     steps = []
     straight = small_model()
-    history = fit_at_scale(straight, toy_set(8), toy_set(4, 1), tmp_path / "a", recipe=r,
-                           progress=False, on_step=steps.append)
+    history = fit(straight, toy_set(8), toy_set(4, 1), tmp_path / "a", recipe=r,
+                  progress=False, on_step=steps.append)
     assert [s["step"] for s in steps] == list(range(6))
     assert [s["epoch"] for s in steps] == [1, 1, 2, 2, 3, 3]
     assert [s["lr"] for s in steps] == [lr_at_step(r, i, 6) for i in range(6)]
     assert steps[0]["lr"] == 2.5e-3 and steps[-1]["lr"] == pytest.approx(COSINE_FLOOR * 5e-3)
-    # the history's rate is the last step's of each epoch
+    # the history's rate is the last step's of each epoch, its loss the mean of the steps'
     assert [h["lr"] for h in history] == [steps[1]["lr"], steps[3]["lr"], steps[5]["lr"]]
+    assert history[0]["train_loss"] == pytest.approx((steps[0]["loss"] + steps[1]["loss"]) / 2)
 
     # interrupted after two epochs, then resumed: the same weights as the straight run
     def stop_after_two(history):
@@ -283,19 +283,46 @@ def test_fit_at_scale_sets_the_rate_every_step_reports_each_step_and_resumes_exa
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        fit_at_scale(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r,
-                     progress=False, on_epoch=stop_after_two)
+        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r,
+            progress=False, on_epoch=stop_after_two)
     resumed = small_model(seed=99)
     steps = []
     fit_at_scale(resumed, toy_set(8), toy_set(4, 1), tmp_path / "b", recipe=r,
                  progress=False, resume=True, on_step=steps.append)
     assert [s["step"] for s in steps] == [4, 5]
     same_weights(straight, resumed)
-    # the plain loop sets the rate once per epoch and says where the per-step one is
-    with pytest.raises(ValueError, match="per_step=True.*fit_at_scale"):
-        fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path / "c", recipe=r,
-            progress=False)
-    assert not (tmp_path / "c").exists()
+
+
+def test_fit_hooks_see_every_step_of_the_one_loop(tmp_path):
+    from e2vlib.train import FitHooks
+
+    class Recorder(FitHooks):
+        def __init__(self):
+            self.calls = []
+
+        def begin_step(self, epoch, step, batch):
+            self.calls.append(("step", epoch, step, len(batch)))
+            return batch[:2]  # train on the first two samples of every batch only
+
+        def after_backward(self):
+            self.calls.append("backward")
+
+        def end_epoch(self):
+            self.calls.append("end")
+
+    hooks = Recorder()
+    fit(small_model(), toy_set(8), toy_set(4, 1), tmp_path, epochs=2, batch_size=4,
+        progress=False, hooks=hooks)
+    step = [("step", 0, 0, 4), "backward", ("step", 0, 1, 4), "backward", "end"]
+    assert hooks.calls == step + [(c[0], 1, *c[2:]) if isinstance(c, tuple) else c
+                                  for c in step]
+    # the same batches with the same hooks: what a hook returns is what trains
+    a, b = small_model(), small_model()
+    for model, out in ((a, "a"), (b, "b")):
+        fit(model, toy_set(8), toy_set(4, 1), tmp_path / out, epochs=1, batch_size=4,
+            progress=False, hooks=Recorder() if out == "a" else None)
+    assert not all(torch.equal(x, y) for x, y in zip(a.parameters(), b.parameters(),
+                                                       strict=True))
 
 
 def test_output_prior_starts_the_predictions_at_the_labels_occupancy(tmp_path):
@@ -359,7 +386,8 @@ def test_output_prior_p_starts_the_predictions_at_even_odds(tmp_path):
     ({"precision": "fp16", "scale": True}, "precision must be one of fp32, bf16, got 'fp16'"),
     ({"loss": "dice", "scale": True}, "unknown loss 'dice'"),
     ({"precision": "bf16"}, "fit has no option precision: .*fit_at_scale"),
-    ({"resume": True, "on_step": print}, "fit has no option on_step, resume: .*fit_at_scale"),
+    ({"resume": True, "channels_last": True},
+     "fit has no option channels_last, resume: .*fit_at_scale"),
 ])
 def test_fit_rejects_bad_settings_before_writing_anything(tmp_path, kwargs, message):
     out = tmp_path / "run"

@@ -87,7 +87,7 @@ of ...
     """
     from e2vlib.data import E2VDataset
     from e2vlib.data.checks import read_config
-    from e2vlib.model import PRESETS, build_e2v, model_from_checkpoint, read_checkpoint
+    from e2vlib.model import PRESETS, build_e2v, load_checkpoint, read_checkpoint
     from e2vlib.paper import IOU_THRESHOLD
     from e2vlib.scale.training import fit_at_scale, init_distributed_from_env
     from e2vlib.train import RECIPES, get_recipe
@@ -131,7 +131,7 @@ of ...
     if args.resume:
         ckpt = read_checkpoint(last)
         resume_checks(last, ckpt, args.preset)
-        model = model_from_checkpoint(ckpt, source=f"checkpoint {last}").train()  # checked
+        model = load_checkpoint(ckpt, source=f"checkpoint {last}").train()  # checked
         done = int(ckpt["epoch"]) + 1
         if done >= recipe.epochs:
             print(f"nothing to do: {last} already holds {done} epochs of the {recipe.epochs} "
@@ -140,7 +140,7 @@ of ...
         del ckpt
     elif init is not None:
         ckpt = read_checkpoint(init)
-        model = model_from_checkpoint(ckpt, source=f"checkpoint {init}").train()
+        model = load_checkpoint(ckpt, source=f"checkpoint {init}").train()
         model_frames_check(model, ckpt, str(init), train_set.config, train_set.input_shape,
                            f"dataset {args.data}")
         del ckpt
@@ -179,15 +179,15 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
     from e2vlib.data import E2VDataset
     from e2vlib.files import atomic_path
-    from e2vlib.metrics import format_table
-    from e2vlib.model import model_from_checkpoint, read_checkpoint
+    from e2vlib.metrics import format_category_table
+    from e2vlib.model import load_checkpoint, read_checkpoint
     from e2vlib.train import evaluate
 
     json_path = output_file(args.json, "--json", "results.json") if args.json else None
     separate_paths({"--json": json_path}, {"--checkpoint": args.checkpoint})
     check_device(args.device)
     ckpt = read_checkpoint(args.checkpoint)
-    model = model_from_checkpoint(ckpt, source=f"checkpoint {args.checkpoint}")
+    model = load_checkpoint(ckpt, source=f"checkpoint {args.checkpoint}")
     data = E2VDataset(args.data, args.split)
     model_frames_check(model, ckpt, args.checkpoint, data.config, data.input_shape,
                        f"dataset {args.data}")
@@ -198,7 +198,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
         train = None
     result = evaluate(model, data, train_data=train, device=args.device,
                       fscore_points=args.fscore_points)
-    print(format_table(result))
+    print(format_category_table(result))
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(json_path) as tmp:

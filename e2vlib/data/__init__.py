@@ -4,13 +4,14 @@ One sample is what the paper feeds its network: an object is rendered along the 
 orbit (120 frames at 240 fps = 0.5 s, rendered ``oversample`` times denser for the
 simulator), the video becomes events (ESIM, contrast 0.2), the events become 100 binary
 frames of 5 ms, max-pooled down to ``frame_size``; the label is the object's 32^3 voxel
-grid. Every public name is importable from here
-(``from e2vlib.data import BuildConfig, build_dataset, E2VDataset``); the code lives in
-ten modules, each with one job:
+grid. The names a lesson or a user calls are importable from here
+(``from e2vlib.data import BuildConfig, build_dataset, E2VDataset``); the size limits and
+the builder's helpers are imported from their modules. The code lives in ten modules,
+each with one job:
 
 =========================  =================================================================
 ``data.checks``            a dataset folder is untrusted input: :class:`DatasetError`,
-                           :func:`read_manifest_rows`, :func:`read_config`,
+                           :func:`read_config`,
                            :func:`check_id`, :func:`inside`, :data:`SPLITS`, the size
                            limits (:data:`MAX_FRAMES_PER_SAMPLE`, ...)
 ``data.config``            build settings: :class:`BuildConfig` (ROOT/config.json),
@@ -68,33 +69,14 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "build": [
-            "DATASET_ENTRIES", "SHARDS_DIR", "build_dataset", "check_build_folder",
-            "describe_build", "JobError", "run_jobs",
-        ],
-        "checks": [
-            "MANIFEST_REQUIRED", "MAX_CONFIG_BYTES", "MAX_FRAMES_PER_SAMPLE", "MAX_ID_LENGTH",
-            "MAX_MANIFEST_BYTES", "SPLITS", "check_id", "DatasetError", "inside",
-            "npz_problem", "read_config", "read_manifest_rows", "rebuild_hint",
-        ],
+        "build": ["build_dataset", "check_build_folder", "describe_build", "JobError", "run_jobs"],
+        "checks": ["SPLITS", "DatasetError", "read_config"],
         "commands": ["build_command", "make_data_command"],
-        "config": [
-            "FRAME_FIELDS", "LEGACY_WINDOWS", "MAX_PER_CATEGORY", "MAX_RESOLUTION",
-            "MAX_VIDEO_BYTES", "BuildConfig",
-            "dataset_config", "frame_settings",
-        ],
+        "config": ["BuildConfig"],
         "dataset": ["E2VDataset", "Verification", "verify_dataset"],
-        "grey": [
-            "GREY_DIR", "grey_frame_cameras", "grey_frame_indices", "load_grey_video",
-            "nearest_frames", "rendered_times_us", "save_grey_video", "video_to_grey",
-        ],
-        "manifest": [
-            "MANIFEST_FIELDS", "manifest_digests", "npz_digest", "read_manifest", "write_manifest",
-        ],
-        "plan": [
-            "SPLIT_FRACTIONS", "parse_shard", "plan_samples", "raw_event_ids", "sample_seed",
-            "SampleSpec",
-        ],
+        "grey": ["grey_frame_cameras", "grey_frame_indices", "load_grey_video", "video_to_grey"],
+        "manifest": ["npz_digest", "read_manifest", "write_manifest"],
+        "plan": ["parse_shard", "plan_samples", "sample_seed", "SampleSpec"],
         "samples": ["load_sample", "mesh_to_sample", "Sample", "save_sample"],
         "synthevox3d": [
             "SYNTHEVOX3D_SENSOR", "load_synthevox3d_scan", "synthevox3d_items",

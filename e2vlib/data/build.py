@@ -22,12 +22,13 @@ from tqdm.contrib.concurrent import process_map
 
 from e2vlib.data.checks import DatasetError, read_config
 from e2vlib.data.config import BuildConfig
-from e2vlib.data.grey import GREY_DIR, rendered_times_us, save_grey_video
+from e2vlib.data.grey import GREY_DIR, save_grey_video
 from e2vlib.data.manifest import write_manifest
 from e2vlib.data.plan import SampleSpec, plan_samples, raw_event_ids
 from e2vlib.data.samples import mesh_to_sample, save_sample
 from e2vlib.files import atomic_path
 from e2vlib.io import save_events
+from e2vlib.orbit import rendered_times_us
 
 SHARDS_DIR = "shards"
 """Folder of a dataset holding one ``<i>-of-<n>.json`` per ``--shard i/n`` run."""
@@ -49,7 +50,7 @@ def _build_one(args: tuple[BuildConfig, SampleSpec, str, bool, Callable | None])
         save_events(root_path / "events" / f"{spec.id}.npz", sample.events, sample.sensor_size)
     if sample.grey is not None:  # written before the sample file, which marks it done
         save_grey_video(root_path / GREY_DIR / f"{spec.id}.npz", sample.grey, sample.grey_index,
-                        rendered_times_us(config)[sample.grey_index])
+                        rendered_times_us(oversample=config.oversample)[sample.grey_index])
     save_sample(root_path / "samples" / f"{spec.id}.npz", sample.frames, sample.voxels,
                 len(sample.events))
     return {**asdict(spec), "n_events": len(sample.events)}

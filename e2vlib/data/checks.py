@@ -11,7 +11,6 @@ Introduced in notebooks/04_building_the_dataset.ipynb (the builder writes what t
 
 from __future__ import annotations
 
-import csv
 import json
 import os
 import re
@@ -21,9 +20,6 @@ from e2vlib import paper
 from e2vlib.frames import WINDOWS
 
 SPLITS = ("train", "val", "test")
-MANIFEST_REQUIRED = ("id", "category", "split", "seed", "n_events")
-MAX_MANIFEST_BYTES = 64 * 2**20
-"""Largest manifest.csv read (64 MiB; the paper's 39,741 samples take about 4 MiB)."""
 MAX_CONFIG_BYTES = 2**20
 """Largest config.json read (1 MiB; a real one is under 1 KiB)."""
 MAX_FRAMES_PER_SAMPLE = 2**30
@@ -31,7 +27,6 @@ MAX_FRAMES_PER_SAMPLE = 2**30
 paper's 100 x 256 x 256 is 6.5 M)."""
 MAX_ID_LENGTH = 128
 _ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
-_SHA256 = re.compile(r"[0-9a-f]{64}")
 
 
 class DatasetError(ValueError):
@@ -114,7 +109,7 @@ def inside(root: Path, path: Path) -> Path:
     return path
 
 
-def _read_text(path: Path, limit: int, what: str) -> str:
+def read_capped_text(path: Path, limit: int, what: str) -> str:
     """The UTF-8 text of ``path`` (at most ``limit`` bytes), or a DatasetError naming it."""
     if path.is_dir():
         raise DatasetError(f"{path} is a folder, not a {what} file; remove it and rebuild "
@@ -138,79 +133,6 @@ def _read_text(path: Path, limit: int, what: str) -> str:
         raise DatasetError(f"{path} is not a text {what} (it holds NUL bytes); rebuild the "
                            f"dataset with {rebuild_hint(path.parent)}")
     return text
-
-
-def _whole(text: str | None, name: str, where: str) -> int:
-    if text is None or not re.fullmatch(r"\d{1,19}", text.strip()):
-        raise DatasetError(f"{where}: {name} must be a whole number >= 0, got {text!r}; fix "
-                           "the row or rebuild the manifest with make-data")
-    return int(text)
-
-
-def read_manifest_rows(root: str | os.PathLike) -> list[dict]:
-    """Rows of ROOT/manifest.csv, each checked: the columns id, category, split, seed,
-    n_events present; a plain-name id (:func:`check_id`) listed once; a split of
-    train/val/test (exact case); a category of :data:`e2vlib.paper.CATEGORIES`; seed and
-    n_events whole numbers (returned as int); ``sha256``, where given, 64 hex digits.
-    Raises FileNotFoundError when there is no manifest, DatasetError naming the row.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> root = Path(tempfile.mkdtemp())
-    >>> header = "id,category,split,seed,n_events"
-    >>> _ = (root / "manifest.csv").write_text(header + "\\nchair_0000,chair,test,7,1200")
-    >>> read_manifest_rows(root)
-    [{'id': 'chair_0000', 'category': 'chair', 'split': 'test', 'seed': 7, 'n_events': 1200}]
-    >>> _ = (root / "manifest.csv").write_text(header + "\\nchair_0000,chair,Test,7,1200")
-    >>> read_manifest_rows(root)  # doctest: +ELLIPSIS
-    Traceback (most recent call last):
-    ...
-    e2vlib.data.checks.DatasetError: ...line 2 (sample 'chair_0000'): split 'Test' is not one of ...
-    """
-    root = Path(root)
-    path = root / "manifest.csv"
-    if not path.exists():
-        raise FileNotFoundError(
-            f"{path} not found: build a dataset with `python -m e2vlib make-data --out {root}`")
-    reader = csv.DictReader(_read_text(path, MAX_MANIFEST_BYTES, "manifest").splitlines())
-    try:
-        header = reader.fieldnames or []
-        missing = [c for c in MANIFEST_REQUIRED if c not in header]
-        if missing:
-            raise DatasetError(f"{path}: the header lacks the column(s) {', '.join(missing)} "
-                               f"(it has {', '.join(map(repr, header)) or 'nothing'}); a "
-                               f"manifest starts with {','.join(MANIFEST_REQUIRED)}: rebuild "
-                               f"it with {rebuild_hint(root)}")
-        rows, seen = [], {}
-        for row in reader:
-            where = f"{path} line {reader.line_num}"
-            if None in row or any(row.get(c) is None for c in header):
-                raise DatasetError(f"{where}: {len(header)} fields expected, as in the header; "
-                                   "fix the row or rebuild the manifest with make-data")
-            sample_id = check_id(row["id"], where)
-            where = f"{where} (sample {sample_id!r})"
-            if sample_id in seen:
-                raise DatasetError(f"{where}: the id is listed twice (also on line "
-                                   f"{seen[sample_id]}); remove one of the rows")
-            seen[sample_id] = reader.line_num
-            if row["split"] not in SPLITS:
-                raise DatasetError(f"{where}: split {row['split']!r} is not one of "
-                                   f"{', '.join(SPLITS)} (lower case); fix the row")
-            if row["category"] not in paper.CATEGORIES:
-                raise DatasetError(f"{where}: category {row['category']!r} is not one of the "
-                                   f"paper's {len(paper.CATEGORIES)} "
-                                   f"({', '.join(paper.CATEGORIES)}); fix or remove the row")
-            row["seed"] = _whole(row["seed"], "seed", where)
-            row["n_events"] = _whole(row["n_events"], "n_events", where)
-            if row.get("sha256") and not _SHA256.fullmatch(row["sha256"]):
-                raise DatasetError(f"{where}: sha256 {row['sha256']!r} is not 64 hex digits; "
-                                   "rebuild the manifest with make-data")
-            rows.append(row)
-    except csv.Error as err:
-        raise DatasetError(f"{path}: not a readable CSV file ({err}); rebuild it with "
-                           f"{rebuild_hint(root)}") from None
-    return rows
 
 
 def _positive(config: dict, name: str, path: Path, maximum: int | None = None,
@@ -249,7 +171,7 @@ def read_config(root: str | os.PathLike) -> dict:
     e2vlib.data.checks.DatasetError: ...config.json: frame_size must be a whole number >= 1 ...
     """
     path = Path(root) / "config.json"
-    text = _read_text(path, MAX_CONFIG_BYTES, "config")
+    text = read_capped_text(path, MAX_CONFIG_BYTES, "config")
     try:
         config = json.loads(text)
     except json.JSONDecodeError as err:

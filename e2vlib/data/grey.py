@@ -18,35 +18,17 @@ from e2vlib.data.checks import check_id, inside, read_config
 from e2vlib.data.commands import make_data_command
 from e2vlib.data.config import BuildConfig, frame_settings
 from e2vlib.files import atomic_path
-from e2vlib.orbit import nearest_frames  # noqa: F401  (its home is orbit; data re-exports it)
 
 GREY_DIR = "grey"
 """Folder of a dataset holding the grey videos (``make-data --grey-video``)."""
-
-
-def rendered_times_us(config: BuildConfig) -> np.ndarray:
-    """Time stamps (int64 us, shape ``(n_rendered,)``) of the video frames that
-    :func:`mesh_to_sample` renders for ``config``: ``n_rendered = oversample * (120 - 1)
-    + 1`` frames at ``oversample * 240`` fps, as :func:`e2vlib.render.render_orbit`
-    stamps them (frame ``i`` at ``round(i * 1e6 / (oversample * 240))``).
-
-    Examples
-    --------
-    >>> config = BuildConfig(categories=("chair",), per_category=1, oversample=1)
-    >>> t = rendered_times_us(config)  # 120 frames at 240 fps
-    >>> len(t), t[:4].tolist()
-    (120, [0, 4167, 8333, 12500])
-    >>> len(rendered_times_us(BuildConfig(categories=("chair",), per_category=1, oversample=3)))
-    358
-    """
-    return orbit.rendered_times_us(paper.N_VIDEO_FRAMES, paper.VIDEO_FPS, int(config.oversample))
 
 
 def grey_frame_indices(config: BuildConfig) -> np.ndarray:
     """Which rendered video frame becomes grey frame ``k``: shape ``(n_frames,)`` int64.
 
     Grey frame ``k`` is the rendered frame (of the ``oversample``-times dense orbit that
-    fed the simulator, :func:`rendered_times_us`) nearest the centre ``(k + 1/2) dt_us``
+    fed the simulator, :func:`e2vlib.orbit.rendered_times_us`) nearest the centre
+    ``(k + 1/2) dt_us``
     of event window ``k`` (ties to the earlier frame). Windows past the end of the 0.5 s
     video get its last frame. With ``windows="paper"`` the Eq. 5 groups start at events
     and so vary per sample; the grey video keeps to the clock windows of ``dt_us``.
@@ -143,7 +125,7 @@ def load_grey_video(root: str | os.PathLike, sample_id: str) -> np.ndarray:
     >>> _ = (root / "config.json").write_text(json.dumps(config.to_dict()))
     >>> index = grey_frame_indices(config)
     >>> save_grey_video(root / GREY_DIR / "chair_0000.npz", np.full((100, 8, 8), 7, np.uint8),
-    ...                 index, rendered_times_us(config)[index])
+    ...                 index, orbit.rendered_times_us(oversample=config.oversample)[index])
     >>> grey = load_grey_video(root, "chair_0000")
     >>> grey.shape, grey.dtype, int(grey[0, 0, 0])
     ((100, 8, 8), dtype('uint8'), 7)

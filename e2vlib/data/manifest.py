@@ -10,17 +10,24 @@ from __future__ import annotations
 import csv
 import hashlib
 import os
+import re
 import zipfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
 
-from e2vlib.data.checks import read_manifest_rows
+from e2vlib import paper
+from e2vlib.data.checks import SPLITS, DatasetError, check_id, read_capped_text, rebuild_hint
 from e2vlib.data.plan import SampleSpec
 from e2vlib.files import atomic_path
 
 MANIFEST_FIELDS = ("id", "category", "split", "seed", "n_events", "sha256")
+MANIFEST_REQUIRED = MANIFEST_FIELDS[:5]
+"""The columns every manifest has (``sha256`` came later: older manifests lack it)."""
+MAX_MANIFEST_BYTES = 64 * 2**20
+"""Largest manifest.csv read (64 MiB; the paper's 39,741 samples take about 4 MiB)."""
+_SHA256 = re.compile(r"[0-9a-f]{64}")
 
 
 def npz_digest(path: str | os.PathLike) -> str:
@@ -118,18 +125,74 @@ def write_manifest(root: Path, specs: Iterable[SampleSpec],
 
 
 def read_manifest(root: str | os.PathLike) -> list[dict]:
-    """Rows of ROOT/manifest.csv as dicts (``seed``, ``n_events`` as int; ``sha256`` as
-    written, and absent from manifests older than it). Every row is checked
-    (:func:`e2vlib.data.checks.read_manifest_rows`): a bad one is a :class:`DatasetError`
-    naming its line.
+    """Rows of ROOT/manifest.csv as dicts, each checked: the columns id, category, split,
+    seed, n_events present; a plain-name id (:func:`check_id`) listed once; a split of
+    train/val/test (exact case); a category of :data:`e2vlib.paper.CATEGORIES`; seed and
+    n_events whole numbers (returned as int); ``sha256``, where given, 64 hex digits
+    (absent from manifests older than it). Raises FileNotFoundError when there is no
+    manifest, :class:`~e2vlib.data.checks.DatasetError` naming the row.
 
     Examples
     --------
     >>> import tempfile
     >>> root = Path(tempfile.mkdtemp())
-    >>> rows = "id,category,split,seed,n_events\\nlamp_3,lamp,val,5,9"
-    >>> _ = (root / "manifest.csv").write_text(rows)
-    >>> read_manifest(root)  # an older manifest, without sha256
-    [{'id': 'lamp_3', 'category': 'lamp', 'split': 'val', 'seed': 5, 'n_events': 9}]
+    >>> header = "id,category,split,seed,n_events"
+    >>> _ = (root / "manifest.csv").write_text(header + "\\nchair_0000,chair,test,7,1200")
+    >>> read_manifest(root)
+    [{'id': 'chair_0000', 'category': 'chair', 'split': 'test', 'seed': 7, 'n_events': 1200}]
+    >>> _ = (root / "manifest.csv").write_text(header + "\\nchair_0000,chair,Test,7,1200")
+    >>> read_manifest(root)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    e2vlib.data.checks.DatasetError: ...line 2 (sample 'chair_0000'): split 'Test' is not one of ...
     """
-    return read_manifest_rows(root)
+    root = Path(root)
+    path = root / "manifest.csv"
+    if not path.exists():
+        raise FileNotFoundError(
+            f"{path} not found: build a dataset with `python -m e2vlib make-data --out {root}`")
+    reader = csv.DictReader(read_capped_text(path, MAX_MANIFEST_BYTES, "manifest").splitlines())
+    try:
+        header = reader.fieldnames or []
+        missing = [c for c in MANIFEST_REQUIRED if c not in header]
+        if missing:
+            raise DatasetError(f"{path}: the header lacks the column(s) {', '.join(missing)} "
+                               f"(it has {', '.join(map(repr, header)) or 'nothing'}); a "
+                               f"manifest starts with {','.join(MANIFEST_REQUIRED)}: rebuild "
+                               f"it with {rebuild_hint(root)}")
+        rows, seen = [], {}
+        for row in reader:
+            where = f"{path} line {reader.line_num}"
+            if None in row or any(row.get(c) is None for c in header):
+                raise DatasetError(f"{where}: {len(header)} fields expected, as in the header; "
+                                   "fix the row or rebuild the manifest with make-data")
+            sample_id = check_id(row["id"], where)
+            where = f"{where} (sample {sample_id!r})"
+            if sample_id in seen:
+                raise DatasetError(f"{where}: the id is listed twice (also on line "
+                                   f"{seen[sample_id]}); remove one of the rows")
+            seen[sample_id] = reader.line_num
+            if row["split"] not in SPLITS:
+                raise DatasetError(f"{where}: split {row['split']!r} is not one of "
+                                   f"{', '.join(SPLITS)} (lower case); fix the row")
+            if row["category"] not in paper.CATEGORIES:
+                raise DatasetError(f"{where}: category {row['category']!r} is not one of the "
+                                   f"paper's {len(paper.CATEGORIES)} "
+                                   f"({', '.join(paper.CATEGORIES)}); fix or remove the row")
+            row["seed"] = _whole(row["seed"], "seed", where)
+            row["n_events"] = _whole(row["n_events"], "n_events", where)
+            if row.get("sha256") and not _SHA256.fullmatch(row["sha256"]):
+                raise DatasetError(f"{where}: sha256 {row['sha256']!r} is not 64 hex digits; "
+                                   "rebuild the manifest with make-data")
+            rows.append(row)
+    except csv.Error as err:
+        raise DatasetError(f"{path}: not a readable CSV file ({err}); rebuild it with "
+                           f"{rebuild_hint(root)}") from None
+    return rows
+
+
+def _whole(text: str | None, name: str, where: str) -> int:
+    if text is None or not re.fullmatch(r"\d{1,19}", text.strip()):
+        raise DatasetError(f"{where}: {name} must be a whole number >= 0, got {text!r}; fix "
+                           "the row or rebuild the manifest with make-data")
+    return int(text)

@@ -18,9 +18,10 @@ import numpy as np
 from e2vlib import paper
 from e2vlib.data.checks import MAX_FRAMES_PER_SAMPLE, DatasetError, npz_problem
 from e2vlib.data.config import BuildConfig
-from e2vlib.data.grey import nearest_frames, video_to_grey
+from e2vlib.data.grey import video_to_grey
 from e2vlib.files import atomic_path
 from e2vlib.inputs import orbit_input
+from e2vlib.orbit import nearest_frames
 
 
 @dataclass

@@ -98,7 +98,7 @@ def _tensors(protocol: Protocol, root: str | os.PathLike, split: str,
     from tqdm.auto import tqdm
 
     from e2vlib.data import load_grey_video
-    from e2vlib.inputs import events_to_input, grey_input
+    from e2vlib.inputs import grey_input, orbit_input
     from e2vlib.io import load_events
 
     source = _check_events_folder(protocol, Path(root), split)
@@ -112,8 +112,8 @@ def _tensors(protocol: Protocol, root: str | os.PathLike, split: str,
                            protocol.frame_size)
         else:
             events, sensor = load_events(source / "events" / f"{sample_id}.npz")
-            x = events_to_input(events, sensor, representation, protocol.frame_size,
-                                protocol.n_frames, protocol.dt_us)
+            x = orbit_input(events, sensor, protocol.frame_size, representation=representation,
+                            n_frames=protocol.n_frames, dt_us=protocol.dt_us)
         frames.append(torch.from_numpy(x if x.dtype in (np.uint8, np.float16)
                                        else x.astype(np.float16)))
         voxels.append(torch.from_numpy(dataset.arrays(index)[1]))

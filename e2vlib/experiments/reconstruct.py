@@ -28,7 +28,7 @@ from e2vlib.data import BuildConfig, mesh_to_sample
 from e2vlib.inputs import recording_input
 from e2vlib.io import load_events
 from e2vlib.metrics import iou
-from e2vlib.model import E2V, checkpoint_data_config, model_from_checkpoint, read_checkpoint
+from e2vlib.model import E2V, checkpoint_data_config, load_checkpoint, read_checkpoint
 from e2vlib.paper import IOU_THRESHOLD
 from e2vlib.shapes import load_mesh
 
@@ -288,7 +288,7 @@ def reconstruct(checkpoint: str | os.PathLike | Mapping[str, Any], mesh=None, ev
         ckpt, source = checkpoint, "the checkpoint given"
     else:
         ckpt, source = read_checkpoint(checkpoint), f"checkpoint {checkpoint}"
-    model = model_from_checkpoint(ckpt, source=source)
+    model = load_checkpoint(ckpt, source=source)
     config = checkpoint_build_config(ckpt, model, source)
     voxels = None
     if mesh is not None:

@@ -58,8 +58,7 @@ def run_one(protocol: Protocol, seed: int, device: str = "auto", workdir: Path |
     from e2vlib.inputs import input_channels
     from e2vlib.metrics import iou, score_split
     from e2vlib.model import build_e2v, load_checkpoint
-    from e2vlib.scale.training import fit_at_scale
-    from e2vlib.train import predict, resolve_device
+    from e2vlib.train import fit, predict, resolve_device
 
     torch.set_num_threads(protocol.threads)
     train = load_split(protocol, "train", progress)
@@ -72,10 +71,9 @@ def run_one(protocol: Protocol, seed: int, device: str = "auto", workdir: Path |
     model = build_e2v(protocol.preset, seed=seed, input_shape=shape, **overrides)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         started = time.perf_counter()
-        # fit_at_scale: some studies' recipes set the rate every step (per_step)
-        history = fit_at_scale(model, train, val, tmp, recipe=protocol.recipe,
-                               epochs=protocol.run_epochs, device=device, seed=seed,
-                               loss=protocol.loss, progress=progress)
+        history = fit(model, train, val, tmp, recipe=protocol.recipe,
+                      epochs=protocol.run_epochs, device=device, seed=seed,
+                      loss=protocol.loss, progress=progress)
         train_seconds = time.perf_counter() - started
         best = load_checkpoint(Path(tmp) / "best.pt")
         if keep_checkpoint is not None:
@@ -136,6 +134,8 @@ MAX_RESULTS_BYTES = 64 << 20
 """Largest results file read, in bytes (the recorded ones are under 1 MB)."""
 MAX_RESULTS_DEPTH = 32
 """Deepest nesting of JSON arrays and objects a results file may hold (records nest 4)."""
+LOCK_FILE = ".e2v-results.lock"
+"""The file in a results folder that :func:`results_lock` locks (empty; it may stay)."""
 FRACTION = re.compile(r"[.:_](iou|fscore)@|[.:]val_threshold$")
 """Scores that are fractions in [0, 1], by their dotted name in a record: IoU and F-score at
 any threshold (also per category, or of other test data: ``metrics.low:iou@0.3``) and the
@@ -345,30 +345,19 @@ def read_results(path: str | os.PathLike, study: str | None = None) -> dict | No
 
 @contextmanager
 def results_lock(folder: Path, timeout_s: float = LOCK_TIMEOUT_S) -> Iterator[None]:
-    """Hold an exclusive lock on ``folder`` (``fcntl.flock`` on the folder itself, so
-    nothing is left on disk): writers of the results files in one folder take turns.
-    Without ``fcntl`` (Windows) nothing is locked."""
+    """Hold an exclusive lock on the results folder ``folder``: writers of the results files
+    in one folder take turns. The lock is ``filelock``'s on :data:`LOCK_FILE` in the folder
+    (an OS lock on Linux, macOS and Windows, released when the holder exits or crashes;
+    where the OS has none, a lock file), so every operating system locks, not only Unix."""
+    from filelock import FileLock, Timeout
+
     try:
-        import fcntl
-    except ImportError:  # no advisory locks: one writer at a time is then the user's care
-        yield
-        return
-    fd = os.open(folder, os.O_RDONLY)
-    try:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except BlockingIOError:
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"another process has held the results folder {folder} "
-                                       f"for over {timeout_s:.0f} s (LOCK_TIMEOUT_S); let it "
-                                       "finish, or stop it") from None
-                time.sleep(0.05)
-        yield
-    finally:
-        os.close(fd)  # closing releases the lock
+        with FileLock(Path(folder) / LOCK_FILE, timeout=timeout_s):
+            yield
+    except Timeout:
+        raise TimeoutError(f"another process has held the results folder {folder} for over "
+                           f"{timeout_s:.0f} s (LOCK_TIMEOUT_S); let it finish, or stop it"
+                           ) from None
 
 
 def _run_id(run: dict, key: Sequence[str]) -> tuple:

@@ -19,9 +19,6 @@ Two clocks need two functions; pick by where the events come from:
                            of ``frame_size``; fewer than ``n_frames`` events are refused
 =========================  =================================================================
 
-:func:`events_to_input` is ``orbit_input`` with ``representation`` as its third argument
-(the form lessons 09-12 and the studies call).
-
 This module imports only ``frames``, ``events`` and ``paper`` (``data`` imports it).
 Introduced in notebooks/09_event_representations_and_time.ipynb.
 """
@@ -239,40 +236,6 @@ def recording_input(
     crop = ((height - side) // 2, (width - side) // 2, side)
     return _represent(events, sensor_size, representation, factor, crop, n_frames, dt_us, t0,
                       windows)
-
-
-# --- the representation as the third argument --------------------------------------------
-
-
-def events_to_input(
-    events: np.ndarray,
-    sensor_size: tuple[int, int],
-    representation: str = "binary",
-    frame_size: int = paper.FRAME_SIZE_PX,
-    n_frames: int = paper.N_EVENT_FRAMES,
-    dt_us: int = paper.DT_US,
-    t0_us: int = 0,
-) -> np.ndarray:
-    """The model input of one simulated orbit in ``representation``: :func:`orbit_input`
-    with ``representation`` third (as lessons 09-12 and the studies call it).
-
-    Windows are ``n_frames`` x ``dt_us`` from ``t0_us`` (0: the orbit's first video frame).
-    The square sensor is pooled by ``sensor / frame_size``: max for binary frames, time
-    surfaces and edges, sum for counts and the voxel grid. Returns uint8 ``(D, S, S)`` for
-    the binary representations, float32 ``(D, S, S)`` for the other single-channel ones and
-    float32 ``(2, D, S, S)`` (OFF, ON) for ``"polarity"``.
-
-    Examples
-    --------
-    >>> from e2vlib.events import make_events
-    >>> ev = make_events(x=[0, 3, 3], y=[0, 3, 3], t=[0, 6, 7], p=[1, -1, 1])
-    >>> events_to_input(ev, (4, 4), "count", frame_size=2, n_frames=2, dt_us=5)[1].tolist()
-    [[0.0, 0.0], [0.0, 2.0]]
-    >>> events_to_input(ev, (4, 4), "polarity", frame_size=2, n_frames=2, dt_us=5).shape
-    (2, 2, 2, 2)
-    """
-    return orbit_input(events, sensor_size, frame_size, representation=representation,
-                       n_frames=n_frames, dt_us=dt_us, t0_us=t0_us)
 
 
 GREY_INPUTS: dict[str, str] = {

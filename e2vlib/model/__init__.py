@@ -5,9 +5,9 @@ Input ``(batch, n_frames, H, W)`` float event frames (the frame axis is time), o
 ``sigmoid(logits)``; inputs of ``C > 1`` channels (``in_channels``, e.g. polarity) are
 ``(batch, C, n_frames, H, W)``. Encoders: the paper's 3D ResNet (preset ``"tiny"``), and a
 per-frame 2D ResNet with temporal max pooling (``"tiny2d"``) or a GRU over time
-(``"tiny_gru"``). Every public name is importable from here
-(``from e2vlib.model import E2V, build_e2v, load_checkpoint``); the code lives in seven
-modules, each with one job:
+(``"tiny_gru"``). The names a lesson or a user calls are importable from here
+(``from e2vlib.model import E2V, build_e2v, load_checkpoint``); limits and checks' helpers
+from their modules. The code lives in seven modules, each with one job:
 
 =========================  =================================================================
 ``model.config``           what a model is made of, as numbers: :class:`E2VConfig`, the
@@ -34,7 +34,7 @@ modules, each with one job:
                            :class:`CheckpointError`, :data:`DIGEST_KEY`
 ``model.checkpoint``       checkpoint files: :func:`save_checkpoint`,
                            :func:`read_checkpoint` (verified on read),
-                           :func:`load_checkpoint`, :func:`model_from_checkpoint`,
+                           :func:`load_checkpoint` (from a path or a read dict),
                            :func:`slim_checkpoint`, and the data config a model was
                            trained on (:func:`checkpoint_data_config`,
                            :func:`check_frames_match`)
@@ -59,26 +59,20 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "checkpoint": [
-            "DATA_CONFIG_KEY", "MAX_INFLATION", "check_frames_match", "checkpoint_data_config",
-            "load_checkpoint", "model_from_checkpoint", "read_checkpoint", "save_checkpoint",
-            "slim_checkpoint",
+            "check_frames_match", "checkpoint_data_config", "load_checkpoint", "read_checkpoint",
+            "save_checkpoint", "slim_checkpoint",
         ],
         "config": [
-            "BOTTLENECKS", "BRIDGES", "ENCODERS", "GRID_SIDE", "LIFTS", "NORMS", "PAPER_PARAMETERS",
-            "PRESETS", "RESNET_LAYERS", "VOXEL_RESOLUTION", "E2VConfig",
+            "BOTTLENECKS", "BRIDGES", "ENCODERS", "LIFTS", "NORMS", "PAPER_PARAMETERS",
+            "PRESETS", "E2VConfig",
         ],
         "decoder": ["Bridge", "UNetDecoder"],
         "encoders": [
             "BasicBlock", "Bottleneck", "Frames2dEncoder", "Frames2dGRUEncoder", "ResNetEncoder",
         ],
-        "integrity": [
-            "DIGEST_KEY", "MAX_PARAMETERS", "CheckpointError", "check_state_matches",
-            "expected_state", "verify_weights", "weights_digest",
-        ],
+        "integrity": ["DIGEST_KEY", "CheckpointError", "verify_weights", "weights_digest"],
         "lifting": ["LiftStem", "Lifting"],
         "networks": ["E2V", "build_e2v", "count_parameters"],
-        "summary": [
-            "activation_bytes", "format_layer_table", "layer_table", "parameter_breakdown",
-        ],
+        "summary": ["activation_bytes", "format_layer_table", "layer_table", "parameter_breakdown"],
     },
 )

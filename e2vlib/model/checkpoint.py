@@ -201,12 +201,15 @@ def _check_archive(path: Path) -> None:
             "by it: re-create it with save_checkpoint")
 
 
-def load_checkpoint(path: str | os.PathLike, map_location: str | torch.device = "cpu") -> E2V:
-    """Rebuild the :class:`E2V` stored at ``path`` (its config + weights), in eval mode.
+def load_checkpoint(checkpoint: str | os.PathLike | dict,
+                    map_location: str | torch.device = "cpu", source: object = None) -> E2V:
+    """Rebuild the :class:`E2V` of a checkpoint (its config + weights), in eval mode.
 
-    Accepts any dict holding ``"config"`` and ``"model"`` (extra keys such as optimizer
-    state are ignored; use :func:`read_checkpoint` to get them). The weights are verified
-    and errors raised as in :func:`read_checkpoint`.
+    ``checkpoint`` is a path, read and verified as :func:`read_checkpoint` does (errors
+    raised as there), or a dict that :func:`read_checkpoint` returned, for callers that
+    also need its other entries (history, metadata) without reading the file twice. Any
+    dict holding ``"config"`` and ``"model"`` will do (extra keys such as optimizer state
+    are ignored). ``source`` names the checkpoint in errors (default: the path).
 
     Examples
     --------
@@ -217,35 +220,22 @@ def load_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     >>> _ = save_checkpoint(path, model, data_config={"frame_size": 32})
     >>> load_checkpoint(path).config == model.config
     True
-
-    Introduced in notebooks/05_the_e2v_model.ipynb.
-    """
-    return model_from_checkpoint(read_checkpoint(path, map_location), map_location,
-                                 f"checkpoint {path}")
-
-
-def model_from_checkpoint(ckpt: dict, map_location: str | torch.device = "cpu",
-                          source: object = "checkpoint") -> E2V:
-    """Rebuild the :class:`E2V` of a dict from :func:`read_checkpoint`, in eval mode.
-
-    For callers that also need the checkpoint's other entries (metadata, history)
-    without reading the file twice.
-
-    Examples
-    --------
-    >>> from e2vlib.model.networks import build_e2v
-    >>> model = build_e2v("tiny", input_shape=(16, 32, 32), seed=0)
-    >>> ckpt = {"config": model.config.to_dict(), "model": model.state_dict()}
-    >>> again = model_from_checkpoint(ckpt)
-    >>> again.config == model.config, again.training  # rebuilt, in eval mode
-    (True, False)
-    >>> model_from_checkpoint({**ckpt, "model": {}}, source="m.pt")  # doctest: +ELLIPSIS
+    >>> ckpt = read_checkpoint(path)   # the same from the dict, with the other entries
+    >>> again = load_checkpoint(ckpt)
+    >>> again.config == model.config, again.training, ckpt["data_config"]["frame_size"]
+    (True, False, 32)
+    >>> load_checkpoint({**ckpt, "model": {}}, source="m.pt")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     e2vlib.model.integrity.CheckpointError: m.pt does not match an E2V model: ...
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
     """
+    if isinstance(checkpoint, dict):
+        ckpt, source = checkpoint, source or "checkpoint"
+    else:
+        ckpt = read_checkpoint(checkpoint, map_location)
+        source = source or f"checkpoint {checkpoint}"
     check_state_matches(ckpt, source)  # on the meta device: sizes, names, dtypes
     try:
         model = E2V(E2VConfig.from_dict(dict(ckpt["config"])))

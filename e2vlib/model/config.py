@@ -21,9 +21,6 @@ from e2vlib import paper
 GRID_SIDE = paper.GRID_SIDE
 """Side of the output occupancy grid (the paper's 32^3)."""
 
-VOXEL_RESOLUTION = GRID_SIDE
-"""Older name of :data:`GRID_SIDE`, kept for callers that import it."""
-
 PAPER_PARAMETERS = paper.N_PARAMETERS
 """Total parameter count the paper reports for E2V (:data:`e2vlib.paper.N_PARAMETERS`)."""
 

@@ -1,25 +1,22 @@
 """Training at scale: :func:`fit_at_scale` is :func:`e2vlib.train.fit` with resume, torchrun,
-bfloat16, channels-last, a learning rate set every step and a callback per step.
+bfloat16 and channels-last.
 
-It is built from core's pieces (:func:`~e2vlib.train.loop.train_epoch`,
-:func:`~e2vlib.train.evaluation.validation_scores`, :func:`~e2vlib.train.loop.save_run`, ...)
-and, with its options off, trains the same weights and history as ``fit`` from the same call
-(tests/test_train.py checks it). Here too: what resuming checks (:func:`resume_problems`,
-:func:`read_resume_state`), the device's bfloat16 (:func:`bf16_is_fast`), channels-last
-weights (:func:`to_channels_last`) and joining a torchrun process group
-(:func:`init_distributed_from_env`). See bench/RESULTS.md ("Faster CPU training") for what
-each speed option gains.
+It runs ``fit`` itself, adding these through :class:`ScaleHooks` (the places
+:class:`~e2vlib.train.FitHooks` names in ``fit``'s loop), so every run trains through the one
+loop and the one step; with its options off it trains the same weights and history as ``fit``
+from the same call (tests/test_train.py checks it). Here too: what resuming checks
+(:func:`resume_problems`, :func:`read_resume_state`), the device's bfloat16
+(:func:`bf16_is_fast`), channels-last weights (:func:`to_channels_last`) and joining a
+torchrun process group (:func:`init_distributed_from_env`). See bench/RESULTS.md ("Faster CPU
+training") for what each speed option gains.
 """
 
 from __future__ import annotations
 
-import itertools
 import os
-import time
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
 import torch
 import torch.distributed as dist
 from torch import nn
@@ -34,17 +31,9 @@ from e2vlib.model import (
     read_checkpoint,
 )
 from e2vlib.scale.options import PRECISIONS
-from e2vlib.train.evaluation import validation_scores
-from e2vlib.train.loop import (
-    epoch_batches,
-    epoch_line,
-    fit_data,
-    fit_settings,
-    init_output_prior,
-    save_run,
-    train_epoch,
-)
-from e2vlib.train.recipes import Recipe, lr_at_step, lr_schedule
+from e2vlib.train.devices import model_device, resolve_device
+from e2vlib.train.loop import FitHooks, fit
+from e2vlib.train.recipes import Recipe
 
 LEGACY_LOSS = "bce"
 """The loss of checkpoints written before the loss was recorded: fit only had BCE then."""
@@ -73,16 +62,13 @@ def fit_at_scale(
     channels_last: bool = False,
     **recipe_overrides,
 ) -> list[dict]:
-    """:func:`e2vlib.train.fit` (same arguments, files and history) with these options:
+    """:func:`e2vlib.train.fit` (same arguments, files and history) with these options,
+    which it adds to ``fit``'s loop through :class:`ScaleHooks`:
 
     resume
         Continue exactly from ``out_dir/last.pt`` (weights, optimizer, RNG state, history).
         The checkpoint must hold the same model config, the same loss and, when both are
         known, data made with the same frame settings (:func:`read_resume_state`).
-    on_step
-        Called after every optimizer step with ``{"epoch", "step", "loss", "lr"}`` (epoch
-        from 1, step counted over the whole run from 0); the gradients of that step are
-        still on the model's parameters (diagnostics, per-step plots).
     precision
         ``"fp32"`` (default) or ``"bf16"``: the training forward pass under
         ``torch.autocast`` in bfloat16 (the loss, the optimizer and validation stay in
@@ -96,11 +82,9 @@ def fit_at_scale(
         oneDNN runs faster on CPU. The weights are the same numbers; only float rounding
         in the convolutions differs.
 
-    A recipe with ``per_step`` sets the learning rate before every optimizer step
-    (:func:`~e2vlib.train.lr_at_step`, with its warm-up) instead of once per epoch. Under
-    ``torchrun`` (after :func:`init_distributed_from_env`) the model is wrapped in
+    Under ``torchrun`` (after :func:`init_distributed_from_env`) the model is wrapped in
     DistributedDataParallel and each process trains on its share of every batch's samples;
-    only rank 0 writes files and calls ``on_epoch`` and ``on_step``. ``last.pt`` and
+    only rank 0 writes files, prints and calls ``on_epoch`` and ``on_step``. ``last.pt`` and
     ``best.pt`` also record ``precision`` and ``channels_last``.
 
     Examples
@@ -128,118 +112,91 @@ def fit_at_scale(
     """
     if precision not in PRECISIONS:
         raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, got {precision!r}")
-    recipe, loss_fn, device, seed = fit_settings(recipe, epochs, loss, device, seed,
-                                                 recipe_overrides, per_step=True)
-    rank, world = _distributed()
-    train_set, val_set, data_config = fit_data(model, train_data, val_data, data_config)
-    out_dir = Path(out_dir)
-    if rank == 0:
-        out_dir.mkdir(parents=True, exist_ok=True)
-
-    torch.manual_seed(seed)  # as fit; a resumed run restores the generator from last.pt
-    if recipe.output_prior and not resume:
-        p = recipe.output_prior_p
-        init_output_prior(model, float(train_set.voxels.float().mean()) if p is None else p)
-    model.to(device)
-    if precision == "bf16" and not bf16_is_fast(device):
-        raise ValueError(f"precision='bf16' on {device}: this device has no fast bfloat16 "
+    where = resolve_device(device)
+    if precision == "bf16" and not bf16_is_fast(where):
+        raise ValueError(f"precision='bf16' on {where}: this device has no fast bfloat16 "
                          "(AVX-512 BF16/AMX CPU or a bf16 GPU); train with precision='fp32'")
-    if channels_last:
-        to_channels_last(model)
-    optimizer = torch.optim.AdamW(model.parameters(), lr=recipe.lr,
-                                  weight_decay=recipe.weight_decay)
-    history, start_epoch, best_iou = [], 0, -1.0
-    if resume:
-        history, start_epoch, best_iou = _restore(out_dir / "last.pt", model, optimizer,
-                                                  data_config, device, loss)
-    net = model if world == 1 else nn.parallel.DistributedDataParallel(
-        model, device_ids=[device.index] if device.type == "cuda" else None)
-    steps_per_epoch = len(epoch_batches(len(train_set), recipe.batch_size, seed, 0))
-    for epoch in range(start_epoch, recipe.epochs):
-        for group in optimizer.param_groups:
-            group["lr"] = lr_schedule(recipe, epoch, recipe.epochs)
-        started = time.perf_counter()
-        batches = [_share(b, rank, world)
-                   for b in epoch_batches(len(train_set), recipe.batch_size, seed, epoch)]
-        step = _scale_step(net, model, optimizer, loss_fn, recipe, epoch, steps_per_epoch,
-                           precision, on_step if rank == 0 else None)
-        losses = train_epoch(net, train_set, batches, device, step,
-                             f"epoch {epoch + 1}/{recipe.epochs}", progress and rank == 0)
-        if world > 1:
+    hooks = ScaleHooks(resume=resume, precision=precision, channels_last=channels_last,
+                       loss=loss)
+    main = hooks.saves  # rank 0 (or not under torchrun) prints and calls back
+    return fit(model, train_data, val_data, out_dir, recipe=recipe, epochs=epochs,
+               device=device, seed=seed, progress=progress and main,
+               on_epoch=on_epoch if main else None, metadata=metadata,
+               data_config=data_config, loss=loss, on_step=on_step if main else None,
+               hooks=hooks, **recipe_overrides)
+
+
+class ScaleHooks(FitHooks):
+    """:class:`~e2vlib.train.FitHooks` for :func:`fit_at_scale`: channels-last weights and a
+    resume from ``last.pt`` before the first epoch, DistributedDataParallel under torchrun
+    (each process trains on its share of every batch; BatchNorm statistics aligned after
+    each epoch; only rank 0 writes), the forward pass under bfloat16 autocast with every
+    gradient checked, and ``precision`` and ``channels_last`` recorded in the checkpoints."""
+
+    def __init__(self, resume: bool = False, precision: str = "fp32",
+                 channels_last: bool = False, loss: str = "bce") -> None:
+        self.resume, self.precision, self.loss = resume, precision, loss
+        self.channels_last = bool(channels_last)
+        self.rank, self.world = _distributed()
+        self.saves = self.rank == 0
+        self.model: nn.Module | None = None  # set by start, with the device it trains on
+        self.device = torch.device("cpu")
+        self.where = (0, 0)  # (epoch, step) of the step under way, both from 0
+
+    def start(self, model, optimizer, out_dir, data_config):
+        self.model, self.device = model, model_device(model)
+        if self.channels_last:
+            to_channels_last(model)
+        history, best_iou = [], -1.0
+        if self.resume:
+            history, best_iou = _restore(out_dir / "last.pt", model, optimizer, data_config,
+                                         self.loss)
+        net = model if self.world == 1 else nn.parallel.DistributedDataParallel(
+            model, device_ids=[self.device.index] if self.device.type == "cuda" else None)
+        return net, history, best_iou
+
+    def begin_step(self, epoch, step, batch):
+        """This process's share of ``batch``; a process left without a sample repeats the
+        first, to keep every process stepping in lockstep."""
+        self.where = (epoch, step)
+        mine = batch[self.rank::self.world]
+        return mine if len(mine) else batch[:1]
+
+    def autocast(self):
+        return torch.autocast(self.device.type, dtype=torch.bfloat16,
+                              enabled=self.precision == "bf16")
+
+    def after_backward(self):
+        if self.precision == "bf16":
+            _check_gradients(self.model, *self.where)
+
+    def end_epoch(self):
+        if self.world > 1:
             # DDP keeps parameters equal; buffers (BatchNorm running statistics) are only
             # copied from rank 0 at the start of each forward, so align them once more.
-            for buffer in model.buffers():
+            for buffer in self.model.buffers():
                 dist.broadcast(buffer, src=0)
-        val = validation_scores(model, val_set, device, loss_fn)
-        history.append({"epoch": epoch + 1, "train_loss": float(np.mean(losses)),
-                        "val_loss": val["loss"], "val_iou": val["iou"],
-                        "lr": float(optimizer.param_groups[0]["lr"]),
-                        "seconds": time.perf_counter() - started})
-        improved = val["iou"] > best_iou
-        best_iou = max(best_iou, val["iou"])
-        if rank == 0:
-            save_run(out_dir, model, optimizer, history, best_iou, improved, recipe=recipe,
-                     seed=seed, loss=loss, data_config=data_config, metadata=metadata,
-                     precision=precision, channels_last=bool(channels_last))
-            if progress:
-                print(epoch_line(history[-1]))
-            if on_epoch is not None:
-                on_epoch(history)
-    return history
 
-
-def _share(batch: torch.Tensor, rank: int, world: int) -> torch.Tensor:
-    """This process's share of ``batch``; a process left without a sample repeats the
-    first, to keep every process stepping in lockstep."""
-    mine = batch[rank::world]
-    return mine if len(mine) else batch[:1]
-
-
-def _scale_step(net: nn.Module, model: nn.Module, optimizer: torch.optim.Optimizer, loss_fn,
-                recipe: Recipe, epoch: int, steps_per_epoch: int, precision: str,
-                on_step: Callable[[dict], None] | None) -> Callable:
-    """The training step of epoch ``epoch`` for :func:`~e2vlib.train.loop.train_epoch`:
-    :func:`~e2vlib.train.loop.train_step` with the rate set per step (recipes with
-    ``per_step``), the forward pass under bfloat16 autocast (``precision="bf16"``), every
-    bf16 gradient checked, and ``on_step`` called after the step."""
-    count = itertools.count()
-    total_steps = steps_per_epoch * recipe.epochs
-
-    def step(x: torch.Tensor, y: torch.Tensor) -> float:
-        in_epoch = next(count)
-        index = epoch * steps_per_epoch + in_epoch
-        if recipe.per_step:
-            for group in optimizer.param_groups:
-                group["lr"] = lr_at_step(recipe, index, total_steps)
-        with torch.autocast(x.device.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
-            logits = net(x)
-        value = loss_fn(logits.float(), y)
-        optimizer.zero_grad(set_to_none=True)
-        value.backward()
-        if precision == "bf16":
-            _check_gradients(model, epoch, in_epoch)
-        optimizer.step()
-        if on_step is not None:
-            on_step({"epoch": epoch + 1, "step": index, "loss": value.item(),
-                     "lr": float(optimizer.param_groups[0]["lr"])})
-        return value.item()
-
-    return step
+    def checkpoint_entries(self):
+        return {"precision": self.precision, "channels_last": self.channels_last}
 
 
 def _restore(path: Path, model: E2V, optimizer: torch.optim.Optimizer,
-             data_config: dict | None, device: torch.device,
-             loss: str) -> tuple[list[dict], int, float]:
-    """Load ``last.pt`` into ``model``, ``optimizer`` and torch's random generators after
-    :func:`read_resume_state`'s checks; returns ``(history, next epoch, best IoU)``."""
+             data_config: dict | None, loss: str) -> tuple[list[dict], float]:
+    """Load ``last.pt`` into ``model`` (on its device), ``optimizer`` and torch's random
+    generators after :func:`read_resume_state`'s checks; returns ``(history, best IoU)``."""
+    device = model_device(model)
     state = read_resume_state(path, model, data_config, device, loss)
     model.load_state_dict(state["model"])
     optimizer.load_state_dict(state["optimizer"])
     torch.set_rng_state(state["torch_rng"].cpu())
     if device.type == "cuda" and state.get("cuda_rng") is not None:
         torch.cuda.set_rng_state(state["cuda_rng"].cpu(), device)
-    return ([dict(h) for h in state["history"]], int(state["epoch"]) + 1,
-            float(state["best_iou"]))
+    history = [dict(h) for h in state["history"]]
+    if len(history) != int(state["epoch"]) + 1:
+        raise CheckpointError(f"cannot resume from {path}: it records epoch "
+                              f"{int(state['epoch']) + 1} but a history of {len(history)}")
+    return history, float(state["best_iou"])
 
 
 # ----------------------------------------------------------------------------- resume checks

@@ -39,10 +39,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "builders": ["SUB_TYPES", "make_shape", "shape_kind"],
-        "meshes": [
-            "MAX_MESH_COORDINATE", "MESH_SUFFIXES", "load_mesh", "mesh_name", "normalize_mesh",
-        ],
-        "primitives": ["Parts", "Rng"],
+        "meshes": ["MESH_SUFFIXES", "load_mesh", "normalize_mesh"],
+        "primitives": [],
         "shapenet": ["iter_shapenet", "shapenet_to_zup"],
     },
 )

@@ -1,25 +1,28 @@
 """The training loop, :func:`fit`, and the pieces it is made of.
 
-:func:`fit` is the plain loop a lesson reads: seed, AdamW from the recipe, the learning rate
-per epoch, then epochs of training steps, a validation pass, and the files of the run. Its
-pieces (:func:`fit_settings`, :func:`fit_data`, :func:`epoch_batches`, :func:`train_step`,
-:func:`train_epoch`, :func:`save_run`, :func:`epoch_line`) are public so that
-:mod:`e2vlib.scale.training` builds its resumable, data-parallel, bfloat16 loop from the same
-parts.
+:func:`fit` is the one training loop of the library, the one a lesson reads and the one
+``python -m e2vlib train`` runs: seed, AdamW from the recipe, the learning rate per epoch (or
+per step), then epochs of :func:`train_step` (forward, loss, backward, optimizer step), a
+validation pass, and the files of the run. The speed and scale band joins it through
+:class:`FitHooks` (:func:`e2vlib.scale.training.fit_at_scale`: resume, torchrun, bfloat16,
+channels-last) and never copies it. Its helpers: :func:`epoch_batches` (the seeded sample
+order), :func:`save_run` (the checkpoints), :func:`epoch_line` (the printed line),
+:func:`fit_settings` and :func:`fit_data` (the checked arguments).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import asdict
-from functools import partial
 from pathlib import Path
 
 import numpy as np
 import torch
+from torch import nn
 
 from e2vlib.files import atomic_path
 from e2vlib.inputs.tensors import TensorSet, preload, settings_dict
@@ -28,9 +31,9 @@ from e2vlib.model import E2V, save_checkpoint
 from e2vlib.paper import IOU_THRESHOLD
 from e2vlib.train.devices import resolve_device
 from e2vlib.train.evaluation import validation_scores
-from e2vlib.train.recipes import Recipe, get_recipe, is_whole_number, lr_schedule
+from e2vlib.train.recipes import Recipe, get_recipe, is_whole_number, lr_at_step, lr_schedule
 
-SCALE_OPTIONS = ("resume", "on_step", "precision", "channels_last")
+SCALE_OPTIONS = ("resume", "precision", "channels_last")
 """Options of :func:`e2vlib.scale.training.fit_at_scale` that :func:`fit` does not take."""
 
 
@@ -75,6 +78,8 @@ def fit(
     metadata: dict | None = None,
     data_config: dict | None = None,
     loss: str = "bce",
+    on_step: Callable[[dict], None] | None = None,
+    hooks: FitHooks | None = None,
     **recipe_overrides,
 ) -> list[dict]:
     """Train ``model`` with AdamW and a loss on logits (the paper's BCE); return the history.
@@ -94,7 +99,9 @@ def fit(
     recipe, epochs, **recipe_overrides
         ``"tiny"``, ``"paper"`` or a :class:`Recipe`; ``epochs`` and ``recipe_overrides``
         (``lr=``, ``batch_size=``, ...) change it. ``batch_size < 1``, ``epochs < 1`` or
-        ``lr <= 0`` raise a ValueError naming the value.
+        ``lr <= 0`` raise a ValueError naming the value. The learning rate is set once per
+        epoch (:func:`lr_schedule`), or before every step for a recipe with ``per_step``
+        (:func:`lr_at_step`, with its warm-up).
     device
         ``"auto"``, ``"cpu"``, ``"cuda"``, ... (:func:`resolve_device`).
     seed
@@ -112,6 +119,14 @@ def fit(
         The training loss, one of :data:`e2vlib.losses.LOSSES`: ``"bce"`` (mean binary
         cross-entropy, the paper's), ``"focal"`` or ``"bce_dice"``. Validation reports the
         same loss as ``val_loss``; ``best.pt`` is still picked by validation IoU.
+    on_step
+        Called after every optimizer step with ``{"epoch", "step", "loss", "lr"}`` (epoch
+        from 1, step counted over the whole run from 0); the gradients of that step are
+        still on the model's parameters (diagnostics, per-step plots).
+    hooks
+        What the speed and scale band adds to this loop (:class:`FitHooks`; none by
+        default): :func:`e2vlib.scale.training.fit_at_scale` resumes from ``last.pt``,
+        trains under ``torchrun``, in bfloat16 or channels-last through them.
 
     Returns
     -------
@@ -119,10 +134,7 @@ def fit(
         One row per epoch: ``epoch`` (from 1), ``train_loss`` (mean over the epoch's
         steps), ``val_loss``, ``val_iou`` (at the end of the epoch), ``lr``, ``seconds``.
 
-    Resuming from ``last.pt``, ``torchrun``, bfloat16, channels-last, a rate set every step
-    (recipes with ``per_step``) and a callback per step are
-    :func:`e2vlib.scale.training.fit_at_scale`'s, which trains the same weights from the
-    same call. Introduced in notebooks/06_training.ipynb.
+    Introduced in notebooks/06_training.ipynb.
 
     Examples
     --------
@@ -140,11 +152,15 @@ def fit(
     >>> [h["epoch"] for h in history], files, last_epoch   # last.pt counts epochs from 0
     ([1, 2], ['best.pt', 'history.json', 'last.pt'], 1)
     """
+    from tqdm.auto import tqdm
+
     recipe, loss_fn, device, seed = fit_settings(recipe, epochs, loss, device, seed,
                                                  recipe_overrides)
     train_set, val_set, data_config = fit_data(model, train_data, val_data, data_config)
+    hooks = hooks or FitHooks()
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if hooks.saves:
+        out_dir.mkdir(parents=True, exist_ok=True)
 
     torch.manual_seed(seed)  # dropout draws from torch's global generator
     if recipe.output_prior:  # start the predictions at the labels' occupancy (or at p)
@@ -153,15 +169,28 @@ def fit(
     model.to(device)
     optimizer = torch.optim.AdamW(model.parameters(), lr=recipe.lr,
                                   weight_decay=recipe.weight_decay)
-    step = partial(train_step, model, optimizer, loss_fn)
-    history, best_iou = [], -1.0
-    for epoch in range(recipe.epochs):
-        for group in optimizer.param_groups:
-            group["lr"] = lr_schedule(recipe, epoch, recipe.epochs)
-        started = time.perf_counter()
+    net, history, best_iou = hooks.start(model, optimizer, out_dir, data_config)
+    steps = len(epoch_batches(len(train_set), recipe.batch_size, seed, 0))  # per epoch
+    for epoch in range(len(history), recipe.epochs):  # a resumed history holds epochs done
+        _set_lr(optimizer, lr_schedule(recipe, epoch, recipe.epochs))
+        started, losses = time.perf_counter(), []
+        net.train()
         batches = epoch_batches(len(train_set), recipe.batch_size, seed, epoch)
-        losses = train_epoch(model, train_set, batches, device, step,
-                             f"epoch {epoch + 1}/{recipe.epochs}", progress)
+        bar = tqdm(batches, desc=f"epoch {epoch + 1}/{recipe.epochs}", leave=False,
+                   disable=not progress)
+        for i, batch in enumerate(bar):
+            step = epoch * steps + i
+            if recipe.per_step:
+                _set_lr(optimizer, lr_at_step(recipe, step, steps * recipe.epochs))
+            batch = hooks.begin_step(epoch, i, batch)
+            x = train_set.frames[batch].to(device, torch.float32)
+            y = train_set.voxels[batch].to(device, torch.float32)
+            losses.append(train_step(net, optimizer, loss_fn, x, y, hooks))
+            bar.set_postfix(loss=f"{losses[-1]:.4f}")
+            if on_step is not None:
+                on_step({"epoch": epoch + 1, "step": step, "loss": losses[-1],
+                         "lr": float(optimizer.param_groups[0]["lr"])})
+        hooks.end_epoch()
         val = validation_scores(model, val_set, device, loss_fn)
         history.append({"epoch": epoch + 1, "train_loss": float(np.mean(losses)),
                         "val_loss": val["loss"], "val_iou": val["iou"],
@@ -169,8 +198,10 @@ def fit(
                         "seconds": time.perf_counter() - started})
         improved = val["iou"] > best_iou  # best.pt keeps the best validation IoU
         best_iou = max(best_iou, val["iou"])
-        save_run(out_dir, model, optimizer, history, best_iou, improved, recipe=recipe,
-                 seed=seed, loss=loss, data_config=data_config, metadata=metadata)
+        if hooks.saves:
+            save_run(out_dir, model, optimizer, history, best_iou, improved, recipe=recipe,
+                     seed=seed, loss=loss, data_config=data_config, metadata=metadata,
+                     **hooks.checkpoint_entries())
         if progress:
             print(epoch_line(history[-1]))
         if on_epoch is not None:
@@ -178,10 +209,13 @@ def fit(
     return history
 
 
-def train_step(model: torch.nn.Module, optimizer: torch.optim.Optimizer, loss_fn,
-               x: torch.Tensor, y: torch.Tensor) -> float:
+def train_step(model: nn.Module, optimizer: torch.optim.Optimizer, loss_fn,
+               x: torch.Tensor, y: torch.Tensor, hooks: FitHooks | None = None) -> float:
     """One optimizer step on the batch ``x`` (frames, float32) with labels ``y``
     (``(B, 32, 32, 32)`` float 0/1): forward, loss, gradients, AdamW; returns the loss.
+
+    ``hooks`` (:class:`FitHooks`) may run the forward pass under autocast and check the
+    gradients before the step; the loss is always computed in float32.
 
     Examples
     --------
@@ -193,33 +227,59 @@ def train_step(model: torch.nn.Module, optimizer: torch.optim.Optimizer, loss_fn
     >>> loss > train_step(model, optimizer, make_loss("bce"), x, y)  # one step helped
     True
     """
-    value = loss_fn(model(x), y)
+    hooks = hooks or FitHooks()
+    with hooks.autocast():  # plain fit: nothing; bf16 training: the forward in bfloat16
+        logits = model(x)
+    value = loss_fn(logits.float(), y)
     optimizer.zero_grad(set_to_none=True)
     value.backward()
+    hooks.after_backward()  # bf16 training: stop on a NaN/inf gradient before the step
     optimizer.step()
     return value.item()
 
 
-def train_epoch(model: torch.nn.Module, data: TensorSet, batches: Sequence[torch.Tensor],
-                device: torch.device, step: Callable[[torch.Tensor, torch.Tensor], float],
-                label: str = "", progress: bool = True) -> list[float]:
-    """Run ``step(x, y)`` (e.g. :func:`train_step`) on every batch of sample indices in
-    ``batches``, with ``model`` in training mode; returns the loss of each step.
+class FitHooks:
+    """The places where :func:`fit`'s loop lets the speed and scale band add to it; this
+    base adds nothing (a plain run). :class:`e2vlib.scale.training.ScaleHooks` fills them in
+    for resume, torchrun, bfloat16 and channels-last, so those runs go through the same
+    loop and the same :func:`train_step`.
 
-    ``x`` is the batch's frames and ``y`` its voxels, as float32 on ``device``; ``label``
-    names the progress bar, shown when ``progress``.
+    ``saves``: whether this process writes ``last.pt``, ``best.pt`` and ``history.json``
+    (under torchrun only rank 0 does).
     """
-    from tqdm.auto import tqdm
 
-    model.train()
-    losses = []
-    bar = tqdm(batches, desc=label, leave=False, disable=not progress)
-    for batch in bar:
-        x = data.frames[batch].to(device, torch.float32)
-        y = data.voxels[batch].to(device, torch.float32)
-        losses.append(step(x, y))
-        bar.set_postfix(loss=f"{losses[-1]:.4f}")
-    return losses
+    saves: bool = True
+
+    def start(self, model: nn.Module, optimizer: torch.optim.Optimizer, out_dir: Path,
+              data_config: dict | None) -> tuple[nn.Module, list[dict], float]:
+        """Called once, after the optimizer is made: ``(the module to train, the history of
+        the epochs done, the best validation IoU so far)``; here ``(model, [], -1.0)``."""
+        return model, [], -1.0
+
+    def begin_step(self, epoch: int, step: int, batch: torch.Tensor) -> torch.Tensor:
+        """Before step ``step`` (from 0) of epoch ``epoch`` (from 0): the sample indices
+        this process trains on, here all of ``batch``."""
+        return batch
+
+    def autocast(self) -> contextlib.AbstractContextManager:
+        """The context of the forward pass of a training step; here none."""
+        return contextlib.nullcontext()
+
+    def after_backward(self) -> None:
+        """After the gradients of a step are computed, before the optimizer uses them."""
+
+    def end_epoch(self) -> None:
+        """After an epoch's last step, before validation."""
+
+    def checkpoint_entries(self) -> dict:
+        """Entries stored in ``last.pt`` and ``best.pt`` besides :func:`save_run`'s."""
+        return {}
+
+
+def _set_lr(optimizer: torch.optim.Optimizer, lr: float) -> None:
+    """Set the learning rate of every parameter group of ``optimizer`` to ``lr``."""
+    for group in optimizer.param_groups:
+        group["lr"] = lr
 
 
 def _epoch_order(n: int, seed: int, epoch: int) -> torch.Tensor:
@@ -283,24 +343,17 @@ def epoch_line(record: dict) -> str:
 
 
 def fit_settings(recipe: str | Recipe, epochs: int | None, loss: str, device: str,
-                 seed: int, overrides: dict, per_step: bool = False,
-                 ) -> tuple[Recipe, Callable, torch.device, int]:
+                 seed: int, overrides: dict) -> tuple[Recipe, Callable, torch.device, int]:
     """:func:`fit`'s checked settings: ``(recipe with epochs and overrides, loss function,
-    device, seed)``; a bad one raises a ValueError naming it and the fix. ``per_step``: the
-    caller sets the rate every step (:func:`e2vlib.scale.training.fit_at_scale`); without
-    it a recipe with ``per_step=True`` is refused."""
+    device, seed)``; a bad one raises a ValueError naming it and the fix."""
     scale = sorted(set(overrides) & set(SCALE_OPTIONS))
     if scale:
-        raise ValueError(f"fit has no option {', '.join(scale)}: fit is the plain loop; "
-                         "resume, on_step, precision and channels_last are options of "
-                         "e2vlib.scale.training.fit_at_scale (same arguments besides)")
+        raise ValueError(f"fit has no option {', '.join(scale)}: resume, precision and "
+                         "channels_last are options of e2vlib.scale.training.fit_at_scale "
+                         "(same arguments besides), which runs fit with them")
     if epochs is not None:
         overrides = {**overrides, "epochs": epochs}
     recipe = get_recipe(recipe, **overrides)
-    if recipe.per_step and not per_step:
-        raise ValueError("this recipe sets the rate every step (per_step=True), which fit "
-                         "does not: train it with e2vlib.scale.training.fit_at_scale, or "
-                         "use a recipe without per_step (e.g. 'tiny')")
     if not isinstance(loss, str) or loss not in LOSSES:
         raise ValueError(f"unknown loss {loss!r}; choose one of {', '.join(LOSSES)} "
                          "(e2vlib.losses.LOSSES)")

@@ -63,7 +63,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         ],
         "style": [
             "MESH_COLOR", "OBJECT_VIEW", "OFF_COLOR", "ON_COLOR", "POLARITY_CMAP",
-            "PROBABILITY_CMAP", "TRUTH_COLOR", "UNIT_CUBE_BOUNDS",
+            "PROBABILITY_CMAP", "TRUTH_COLOR",
         ],
         "widgets": ["interactive_figure"],
     },

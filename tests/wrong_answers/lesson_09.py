@@ -6,8 +6,7 @@ WRONG = {
             [[0, 0], [1, 0]]]
 """,
     # the window length left at 5 ms for every N: 10 frames cover 50 ms, 200 frames run past 0.5 s
-    2: """answer_2 = {n: float(inputs.events_to_input(events, sensor_size, "binary",
-                                               n_frames=n).mean())
+    2: """answer_2 = {n: float(inputs.orbit_input(events, sensor_size, n_frames=n).mean())
             for n in (10, 100, 200)}
 """,
     # population standard deviation (ddof=0) instead of the sample one
