@@ -37,8 +37,9 @@ importable from here (``from e2vlib.experiments import STUDIES, run_study``):
                                   and bench figures (:func:`bench_table`, ...)
 ``experiments.classroom``         the small study a student runs in lessons 09-13: a mini
                                   dataset (:func:`build_mini_dataset`), two configs x three
-                                  seeds (:func:`run_class_study`), one figure beside the
-                                  record (:func:`plot_class_study`)
+                                  seeds (:func:`run_class_study`) scored object by object
+                                  on a larger test set (:func:`paired_difference`), one
+                                  figure beside the record (:func:`plot_class_study`)
 ================================  ===========================================================
 
 Imported by their module names (they run as commands, or load much):
@@ -69,8 +70,10 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "classroom": [
             "CLASS_CATEGORIES", "CLASS_EPOCHS", "CLASS_FRAME_SIZE", "CLASS_PER_CATEGORY",
-            "CLASS_SEEDS", "build_mini_dataset", "class_overrides", "class_verdict", "leader",
-            "plot_class_study", "run_class_study",
+            "CLASS_SEEDS", "CLASS_TEST_PER_CATEGORY", "CLASS_TEST_SEED", "all_occupied_iou",
+            "build_mini_dataset", "class_overrides", "class_test_path", "class_verdict", "leader",
+            "objects_to_tell", "paired_difference", "plot_class_study", "run_class_study",
+            "score_class_study",
         ],
         "caches": [
             "BUILD_WORKERS", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE", "EVENTS_COMMAND",
