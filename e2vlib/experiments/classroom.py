@@ -211,6 +211,39 @@ def all_occupied_iou(data: str | os.PathLike) -> float:
     return float(np.mean([dataset.arrays(i)[1].mean() for i in range(len(dataset))]))
 
 
+def class_finding(rows: Sequence[dict], base: str, other: str, data: str | os.PathLike,
+                  quick: bool, brief: bool = False) -> str:
+    """The class study's answer in Markdown: ``other`` against ``base`` on the class test set,
+    object by object (:func:`paired_difference`), and whether that tells them apart; where it
+    cannot, about how many objects would (:func:`objects_to_tell`). In quick mode, how many
+    runs score what predicting every voxel occupied scores (:func:`all_occupied_iou`): the
+    smoke test it is. ``brief``: one short clause, for a summary."""
+    named = {r["config"]: r for r in rows}
+    d = paired_difference(rows, other, base)
+    low, high = d["ci95"]
+    told = bool(low > 0 or high < 0)
+    if quick:
+        empty = all_occupied_iou(data)
+        idle = sum(abs(v - empty) < 0.01 for r in rows for v in r["values"])
+        smoke = (f"quick mode trains one epoch: {idle} of {sum(len(r['values']) for r in rows)} "
+                 f"runs score within 0.01 of {empty:.3f}, what predicting every voxel occupied "
+                 "scores. A smoke test of the code, not an answer.")
+        if brief:
+            return "your study: " + smoke
+        return (f"**Your study** ({_seeds(rows)} seeds, {d['n']} test objects): `{other}` "
+                f"{named[other]['mean']:.3f}, `{base}` {named[base]['mean']:.3f}; " + smoke)
+    pair = f"{d['mean']:+.3f} (95 % interval {low:+.3f} to {high:+.3f})"
+    need = d["objects_to_tell"]
+    verdict = ("**beyond chance**" if told else "**cannot tell**" + (
+        f": about {need:,} objects would tell at this difference and spread" if need else ""))
+    if brief:
+        return f"your study: `{other}` minus `{base}` {pair} object by object, {verdict}"
+    return (f"**Your study** ({_seeds(rows)} seeds, scored on {d['n']} test objects it never "
+            f"trained on): `{other}` {named[other]['mean']:.3f} against `{base}` "
+            f"{named[base]['mean']:.3f}; object by object {pair}, `{other}` ahead on "
+            f"{d['wins']} of {d['n']}: {verdict}.")
+
+
 def _seeds(rows: Sequence[dict]) -> str:
     """The number of seeds per config: ``"3"``, or a range such as ``"3-5"``."""
     counts = sorted({r["n"] for r in rows})
