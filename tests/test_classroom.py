@@ -11,7 +11,6 @@ import pytest  # noqa: E402
 
 from e2vlib.data import E2VDataset  # noqa: E402
 from e2vlib.experiments import classroom, reports  # noqa: E402
-from e2vlib.experiments.summary import summarize  # noqa: E402
 
 
 def test_overrides_point_every_input_at_the_mini_set_with_the_class_budget():

@@ -71,9 +71,9 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "classroom": [
             "CLASS_CATEGORIES", "CLASS_EPOCHS", "CLASS_FRAME_SIZE", "CLASS_PER_CATEGORY",
             "CLASS_SEEDS", "CLASS_TEST_PER_CATEGORY", "CLASS_TEST_SEED", "all_occupied_iou",
-            "build_mini_dataset", "class_finding", "class_overrides", "class_test_path", "class_verdict", "leader",
-            "objects_to_tell", "paired_difference", "plot_class_study", "run_class_study",
-            "score_class_study",
+            "build_mini_dataset", "class_finding", "class_overrides", "class_test_path",
+            "class_verdict", "leader", "objects_to_tell", "paired_difference",
+            "plot_class_study", "run_class_study", "score_class_study",
         ],
         "caches": [
             "BUILD_WORKERS", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE", "EVENTS_COMMAND",

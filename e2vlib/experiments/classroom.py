@@ -31,7 +31,7 @@ from pathlib import Path
 
 from e2vlib.experiments.reports import load_results
 from e2vlib.experiments.runner import run_study
-from e2vlib.experiments.summary import is_real_difference, plot_summary, summarize
+from e2vlib.experiments.summary import is_real_difference, plot_summary
 
 CLASS_CATEGORIES = ("chair", "table", "airplane")
 """The mini dataset's categories: a thin, a flat and a winged shape."""
