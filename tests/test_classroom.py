@@ -120,7 +120,7 @@ def _row(config: str, mean: float, low: float, high: float) -> dict:
     ((0.50, 0.40, 0.60), (0.60, 0.58, 0.62), False, "cannot tell", "`b` ahead"),
     ((0.40, 0.38, 0.42), (0.50, 0.40, 0.60), False, "disagrees with the record", "puts `a` ahead"),
     ((0.40, 0.38, 0.42), (0.60, 0.58, 0.62), False, "disagrees with the record", "puts `b` ahead"),
-    ((0.50, 0.48, 0.52), (0.60, 0.58, 0.62), True, "is a smoke test", "Quick mode"),
+    ((0.50, 0.48, 0.52), (0.60, 0.58, 0.62), True, "is a smoke test", "E2V_QUICK"),
 ], ids=["both overlap", "both b", "class cannot tell", "record cannot tell", "opposite",
         "quick"])
 def test_the_verdict_names_who_is_ahead_in_the_class_study_and_the_record(

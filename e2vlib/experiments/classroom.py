@@ -225,13 +225,12 @@ def class_finding(rows: Sequence[dict], base: str, other: str, data: str | os.Pa
     if quick:
         empty = all_occupied_iou(data)
         idle = sum(abs(v - empty) < 0.01 for r in rows for v in r["values"])
-        smoke = (f"quick mode trains one epoch: {idle} of {sum(len(r['values']) for r in rows)} "
-                 f"runs score within 0.01 of {empty:.3f}, what predicting every voxel occupied "
-                 "scores. A smoke test of the code, not an answer.")
+        smoke = (f"quick mode: {idle} of {sum(len(r['values']) for r in rows)} runs score within "
+                 f"0.01 of {empty:.3f}, the all-occupied answer; a smoke test, not an answer")
         if brief:
             return "your study: " + smoke
-        return (f"**Your study** ({_seeds(rows)} seeds, {d['n']} test objects): `{other}` "
-                f"{named[other]['mean']:.3f}, `{base}` {named[base]['mean']:.3f}; " + smoke)
+        return (f"**Your study** ({d['n']} test objects): `{other}` {named[other]['mean']:.3f}, "
+                f"`{base}` {named[base]['mean']:.3f}; " + smoke + ".")
     pair = f"{d['mean']:+.3f} (95 % interval {low:+.3f} to {high:+.3f})"
     need = d["objects_to_tell"]
     verdict = ("**beyond chance**" if told else "**cannot tell**" + (
@@ -315,9 +314,7 @@ def class_verdict(rows: Sequence[dict], recorded: Sequence[dict], quick: bool
     record = [next(r for r in recorded if r["config"] == name) for name in names]
     yours, theirs = leader(rows), leader(record)
     if quick:
-        return "is a smoke test", ("Quick mode trains one epoch, so every run scores about what "
-                                   "predicting every voxel occupied scores: a smoke test of the "
-                                   "code; run the lesson without `E2V_QUICK` for your answer.")
+        return "is a smoke test", "Run the lesson without `E2V_QUICK` for your answer."
     if yours == theirs:
         return "agrees", ("Your class study **agrees** with the record: " + (
             "neither finds a difference beyond chance." if theirs is None
