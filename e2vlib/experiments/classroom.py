@@ -1,7 +1,8 @@
 """A study a student runs inside a lesson: a mini dataset, two configs, a few seeds, one figure.
 
 Lessons 09-13 each pose one question and answer it twice: first with a *class study* the
-student runs (this module), then with the recorded full study that confirms or corrects it.
+student runs (this module, :func:`class_finding`), then with the recorded full study beside it
+(:func:`class_verdict`: do the two agree?).
 A class study is an ordinary :func:`~e2vlib.experiments.runner.run_study` of a recorded study's
 configs, on a mini dataset of three categories built in the lesson (:func:`build_mini_dataset`)
 and with a shorter budget (:data:`CLASS_EPOCHS`), so its records look like every other study's
