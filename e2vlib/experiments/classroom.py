@@ -229,7 +229,7 @@ def class_finding(rows: Sequence[dict], base: str, other: str, data: str | os.Pa
         smoke = (f"quick mode: {idle} of {sum(len(r['values']) for r in rows)} runs score within "
                  f"0.01 of {empty:.3f}, the all-occupied answer; a smoke test, not an answer")
         if brief:
-            return "your study: " + smoke
+            return "Your study: " + smoke
         return (f"**Your study** ({d['n']} test objects): `{other}` {named[other]['mean']:.3f}, "
                 f"`{base}` {named[base]['mean']:.3f}; " + smoke + ".")
     pair = f"{d['mean']:+.3f} (95 % interval {low:+.3f} to {high:+.3f})"
@@ -237,7 +237,7 @@ def class_finding(rows: Sequence[dict], base: str, other: str, data: str | os.Pa
     verdict = ("**beyond chance**" if told else "**cannot tell**" + (
         f": about {need:,} objects would tell at this difference and spread" if need else ""))
     if brief:
-        return f"your study: `{other}` minus `{base}` {pair} object by object, {verdict}"
+        return f"Your study: `{other}` minus `{base}` {pair} object by object, {verdict}"
     return (f"**Your study** ({_seeds(rows)} seeds, scored on {d['n']} test objects it never "
             f"trained on): `{other}` {named[other]['mean']:.3f} against `{base}` "
             f"{named[base]['mean']:.3f}; object by object {pair}, `{other}` ahead on "
