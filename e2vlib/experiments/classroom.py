@@ -144,6 +144,9 @@ def score_class_study(study: str, configs: Sequence[str], data: str | os.PathLik
             raise ValueError(f"no runs of {study}/{config} are recorded in {out}")
         scores = []
         for run in runs:
+            if "checkpoint" not in run:
+                raise ValueError(f"{study}/{config} seed {run['seed']} in {out} kept no "
+                                 "checkpoint to score; run it with run_class_study")
             changes = {"data": str(test), "events": str(test)}
             if level:
                 changes["noise"] = None if level == "clean" else level
