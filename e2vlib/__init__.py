@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,588 lines)::
+Module map (``python tools/module_map.py --write``; 24,591 lines)::
 
-    lines per band: core 14,452 · speed and scale 1,197 · lab 7,603 · command line 1,336
+    lines per band: core 14,452 · speed and scale 1,197 · lab 7,606 · command line 1,336
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 2043  Datasets
@@ -97,9 +97,9 @@ Module map (``python tools/module_map.py --write``; 24,588 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          401  Training at scale
-    experiments/          7603  The lab
+    experiments/          7606  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
-      classroom.py         330  A study a student runs inside a lesson
+      classroom.py         333  A study a student runs inside a lesson
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
       geometry_study.py    273  The geometry study
