@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 24,948 lines)::
+Module map (``python tools/module_map.py --write``; 25,134 lines)::
 
-    lines per band: core 14,711 · speed and scale 1,156 · lab 7,868 · command line 1,213
+    lines per band: core 14,711 · speed and scale 1,156 · lab 8,054 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -98,9 +98,9 @@ Module map (``python tools/module_map.py --write``; 24,948 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          360  Training at scale
-    experiments/          7868  The lab
+    experiments/          8054  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
-      classroom.py         159  A study a student runs inside a lesson
+      classroom.py         333  A study a student runs inside a lesson
       errors.py            129  How a command fails
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...

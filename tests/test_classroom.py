@@ -11,7 +11,6 @@ import pytest  # noqa: E402
 
 from e2vlib.data import E2VDataset  # noqa: E402
 from e2vlib.experiments import classroom, reports  # noqa: E402
-from e2vlib.experiments.summary import summarize  # noqa: E402
 
 
 def test_overrides_point_every_input_at_the_mini_set_with_the_class_budget():
@@ -53,7 +52,42 @@ def test_a_class_study_records_every_seed_and_returns_its_rows(class_run):
     assert recorded["protocol"]["epochs"] == classroom.CLASS_EPOCHS["quick"]
     assert sorted((r["config"], r["seed"]) for r in recorded["runs"]) == [
         ("binary", 0), ("binary", 1), ("count", 0), ("count", 1)]
-    assert rows == [r for r in summarize(recorded) if r["config"] in ("binary", "count")]
+    assert all(r["checkpoint"] for r in recorded["runs"])  # kept, to score on the test set
+    test = E2VDataset(classroom.class_test_path(data), "test")
+    n_test = classroom.CLASS_TEST_PER_CATEGORY["quick"] * len(classroom.CLASS_CATEGORIES)
+    assert len(test) == n_test  # ids repeat the mini set's names; the seed makes other objects
+    for row in rows:
+        assert row["ids"] == test.ids and len(row["per_object"]) == n_test
+        assert np.isclose(row["mean"], np.mean(row["per_object"]))  # seeds x objects averaged
+
+
+def test_the_class_test_set_holds_other_objects_than_the_mini_set(class_run):
+    _, data, _ = class_run
+    from e2vlib.data.config import dataset_config
+
+    mini, test = dataset_config(data), dataset_config(classroom.class_test_path(data))
+    assert test["seed"] == classroom.CLASS_TEST_SEED != mini["seed"]
+    assert test["splits"] == ["test"] and test["frame_size"] == mini["frame_size"]
+
+
+def test_paired_difference_and_the_objects_that_would_tell():
+    rows = [{"config": "a", "per_object": [0.5, 0.6, 0.7, 0.6]},
+            {"config": "b", "per_object": [0.4, 0.6, 0.5, 0.6]}]
+    d = classroom.paired_difference(rows, "a", "b")
+    assert d["n"] == 4 and np.isclose(d["mean"], 0.075) and d["wins"] == 2
+    diff = np.array([0.1, 0.0, 0.2, 0.0])
+    assert d["objects_to_tell"] == int(np.ceil((1.96 * diff.std(ddof=1) / diff.mean()) ** 2))
+    assert classroom.objects_to_tell([0.1, -0.1]) is None
+
+
+def test_a_class_verdict_uses_the_paired_interval_over_objects():
+    gain = np.linspace(0.01, 0.05, 40)  # every object better under b: beyond chance
+    rows = [{"config": "a", "mean": 0.5, "ci95": (0.3, 0.7), "per_object": list(0.5 - gain)},
+            {"config": "b", "mean": 0.53, "ci95": (0.33, 0.73), "per_object": [0.5] * 40}]
+    assert classroom.leader(rows) == "b"  # the seed intervals overlap; the pairs do not
+    noise = np.resize([0.02, -0.02], 40)
+    rows[0]["per_object"] = list(0.5 + noise)
+    assert classroom.leader(rows) is None
 
 
 def test_the_figure_puts_the_class_study_beside_the_record_from_zero(class_run):
@@ -84,9 +118,9 @@ def _row(config: str, mean: float, low: float, high: float) -> dict:
     ((0.50, 0.40, 0.60), (0.45, 0.40, 0.50), False, "agrees", "neither"),
     ((0.50, 0.48, 0.52), (0.60, 0.58, 0.62), False, "agrees", "`b` ahead"),
     ((0.50, 0.40, 0.60), (0.60, 0.58, 0.62), False, "cannot tell", "`b` ahead"),
-    ((0.40, 0.38, 0.42), (0.50, 0.40, 0.60), False, "is corrected by the record", "puts `a` ahead"),
-    ((0.40, 0.38, 0.42), (0.60, 0.58, 0.62), False, "is corrected by the record", "puts `b` ahead"),
-    ((0.50, 0.48, 0.52), (0.60, 0.58, 0.62), True, "is a smoke test", "Quick mode"),
+    ((0.40, 0.38, 0.42), (0.50, 0.40, 0.60), False, "disagrees with the record", "puts `a` ahead"),
+    ((0.40, 0.38, 0.42), (0.60, 0.58, 0.62), False, "disagrees with the record", "puts `b` ahead"),
+    ((0.50, 0.48, 0.52), (0.60, 0.58, 0.62), True, "is a smoke test", "E2V_QUICK"),
 ], ids=["both overlap", "both b", "class cannot tell", "record cannot tell", "opposite",
         "quick"])
 def test_the_verdict_names_who_is_ahead_in_the_class_study_and_the_record(

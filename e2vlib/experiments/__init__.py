@@ -4,13 +4,12 @@ Everything here sits above core and speed-and-scale and is never imported by the
 09-13 and the command line use it. A *study* is a question (which event representation? how
 many frames? which encoder? which loss?) and a set of named *configs*, each a small dict of
 what differs from the study's :class:`Protocol`. :func:`run_study` trains and evaluates every
-(config, seed) with :func:`e2vlib.train.fit` and scores it with
+(config, seed) with :func:`e2vlib.scale.training.fit_at_scale` and scores it with
 :func:`e2vlib.metrics.score_split`, and appends one record per run to ``OUT/STUDY.json``
 (written atomically after every run); runs already recorded are skipped, so an interrupted
 study resumes where it stopped. :func:`summarize` turns a results file into mean, standard
-deviation and a 95 % interval per config. The names of the study modules that a lesson
-or a user calls are importable from here (``from e2vlib.experiments import STUDIES,
-run_study``); the rest from their modules:
+deviation and a 95 % interval per config. The public names of the study modules are
+importable from here (``from e2vlib.experiments import STUDIES, run_study``):
 
 ================================  ===========================================================
 ``experiments.protocol``          :class:`Protocol`, a study's settings as a frozen dataclass
@@ -38,8 +37,9 @@ run_study``); the rest from their modules:
                                   and bench figures (:func:`bench_table`, ...)
 ``experiments.classroom``         the small study a student runs in lessons 09-13: a mini
                                   dataset (:func:`build_mini_dataset`), two configs x three
-                                  seeds (:func:`run_class_study`), one figure beside the
-                                  record (:func:`plot_class_study`)
+                                  seeds (:func:`run_class_study`) scored object by object
+                                  on a larger test set (:func:`paired_difference`), one
+                                  figure beside the record (:func:`plot_class_study`)
 ================================  ===========================================================
 
 Imported by their module names (they run as commands, or load much):
@@ -51,8 +51,6 @@ Imported by their module names (they run as commands, or load much):
                                   (``python -m e2vlib.experiments.real_study``)
 ``experiments.real_meshes``       the real meshes: catalogue, reviewed mapping, AC3D reader,
                                   the real-mesh test set
-``experiments.errors``            how a command fails (one line, exit 1 or 2, ``--debug``):
-                                  the command line's and the lab commands' :func:`run`
 ``experiments.shipping``          one kept run's model made into a checkpoint for students
                                   (``data_small/checkpoints/e2v_tiny.pt``)
 ``experiments.reconstruct``       one object reconstructed by a checkpoint, from a mesh or an
@@ -72,19 +70,33 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     submod_attrs={
         "classroom": [
             "CLASS_CATEGORIES", "CLASS_EPOCHS", "CLASS_FRAME_SIZE", "CLASS_PER_CATEGORY",
-            "CLASS_SEEDS", "build_mini_dataset", "class_overrides", "class_verdict",
-            "plot_class_study", "run_class_study",
+            "CLASS_SEEDS", "CLASS_TEST_PER_CATEGORY", "CLASS_TEST_SEED", "all_occupied_iou",
+            "build_mini_dataset", "class_finding", "class_overrides", "class_test_path",
+            "class_verdict", "leader", "objects_to_tell", "paired_difference",
+            "plot_class_study", "run_class_study", "score_class_study",
         ],
         "caches": [
-            "BUILD_WORKERS", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_COMMAND", "EXTRA_COMMAND",
-            "NOISE_COMMANDS", "RENDER_CACHE", "RENDER_COMMAND", "SMALL_SETTINGS",
+            "BUILD_WORKERS", "DATA_COMMANDS", "DEFAULT_OUT", "EVENTS_CACHE", "EVENTS_COMMAND",
+            "EXTRA_CACHE", "EXTRA_COMMAND", "NOISE_CACHE", "NOISE_COMMANDS", "RENDER_CACHE",
+            "RENDER_COMMAND", "SMALL_SETTINGS", "STORAGE_SETTINGS", "cache_command",
         ],
-        "loader": ["load_split"],
-        "protocol": ["Protocol", "canonical_protocol"],
-        "provenance": ["REPO", "cpu_name"],
-        "reports": ["RESULTS_DIR", "MissingResultsError", "load_results"],
-        "runner": ["best_threshold", "command_line", "find_same_run", "run_study"],
+        "loader": ["load_split", "protocol_data_config"],
+        "protocol": ["NEUTRAL", "Protocol", "canonical_protocol", "first_per_category"],
+        "provenance": ["REPO", "cpu_name", "git_commit", "package_version"],
+        "reports": [
+            "BENCH_RESULTS", "RESULTS_DIR", "MissingResultsError", "bench_machine",
+            "bench_section", "bench_table", "finding", "lesson_minutes", "load_results",
+            "minutes_per_run", "recorded_on", "report", "runs_of",
+        ],
+        "runner": [
+            "LOCK_TIMEOUT_S", "OBJECT_KEY", "RUN_KEY", "as_seed", "best_threshold",
+            "check_results", "command_line", "find_same_run", "merge_results", "read_results",
+            "results_lock", "run_one", "run_study", "update_results",
+        ],
         "studies": ["COLLAPSE_IOU", "QUICK", "STUDIES", "THRESHOLDS", "Study", "is_collapsed"],
-        "summary": ["compare", "is_real_difference", "plot_summary", "summarize"],
+        "summary": [
+            "compare", "format_study_table", "is_real_difference", "plot_summary", "run_key",
+            "summarize", "unique_runs",
+        ],
     },
 )

@@ -8,14 +8,15 @@ WRONG = {
     2: "answer_2 = {r: r for r in (0.1, 1.0, 10.0)}\n",
     # 2 ms compared with intervals in microseconds as if they were milliseconds
     3: "answer_3 = float(np.mean(intervals < 2))\n",
-    # what training with noise wins back read on the medium test set instead of high
+    # the numbers right, but "wins back" judged against zero instead of half the loss
     4: """def _mean(config, level):
     runs = reports.runs_of(noise_results, config)
     return np.mean([r["metrics"][f"{level}:iou@0.3"] for r in runs])
 
 
 answer_4 = (_mean("train_clean", "clean") - _mean("train_clean", "high"),
-            _mean("train_medium", "medium") - _mean("train_clean", "medium"))
+            _mean("train_medium", "high") - _mean("train_clean", "high"))
+most_4 = bool(answer_4[1] > 0)
 """,
     # the three smallest sizes instead of the three largest
     5: """_runs = reports.load_results("data_scale")["runs"]

@@ -12,8 +12,8 @@ _a, _b = metrics.interval95(_own["e2v_tiny.pt"]), metrics.interval95(_own["first
 answer_2 = (float(_own["e2v_tiny.pt"].mean() - _own["first_recipe.pt"].mean()),
             bool(_a[0] > _b[1] or _a[1] < _b[0]))
 """,
-    # the fixes swapped: the dead bridge given even odds, the plateau a normalised bridge
-    3: 'answer_3 = {"A": "even odds", "B": "normalise"}\n',
+    # the mean probability under 0.3 read as a failure: the learning run C given even odds
+    3: 'answer_3 = {"A": "normalise", "B": "even odds", "C": "even odds"}\n',
     # the class study's rows reused: no new seed trained
     4: "answer_4 = (fixed_row, first_row)\n",
 }
