@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,134 lines)::
+Module map (``python tools/module_map.py --write``; 25,149 lines)::
 
-    lines per band: core 14,711 · speed and scale 1,156 · lab 8,054 · command line 1,213
+    lines per band: core 14,712 · speed and scale 1,156 · lab 8,068 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -98,7 +98,7 @@ Module map (``python tools/module_map.py --write``; 25,134 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          360  Training at scale
-    experiments/          8054  The lab
+    experiments/          8068  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         333  A study a student runs inside a lesson
       errors.py            129  How a command fails
@@ -114,7 +114,7 @@ Module map (``python tools/module_map.py --write``; 25,134 lines)::
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
         mapping.py         266  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_objects/       2796  Real objects of the paper's categories from Debian packages
+      real_objects/       2797  Real objects of the paper's categories from Debian packages
         __main__.py        177  The recorded commands that build the real-object catalogue ...
         build.py           296  Joins the candidates, the review, the duplicates and the ...
         catalogue.py       216  The committed catalogue of real objects and its checker
@@ -122,7 +122,7 @@ Module map (``python tools/module_map.py --write``; 25,134 lines)::
         look.py            142  Looking at the candidates
         readers.py         333  Readers of the real objects' formats, each giving one mesh ...
         samples.py         365  The real objects as samples a model trains on
-        ship.py            176  The real objects a lesson may ship
+        ship.py            177  The real objects a lesson may ship
         sources.py         306  The Debian packages real objects come from
         study.py           544  The real_objects study
       real_study.py        421  Scoring on real meshes
@@ -130,7 +130,7 @@ Module map (``python tools/module_map.py --write``; 25,134 lines)::
       reports.py           240  Recorded results, read the same way by every lesson
       runner.py            570  Running studies
       shipping.py           94  Ship one recorded run's model
-      studies.py           170  The studies
+      studies.py           183  The studies
       summary.py           167  A study's results as numbers
     __main__.py             75  Command line
     cli/                  1138  The command line's parts: python -m e2vlib (__main__) runs them

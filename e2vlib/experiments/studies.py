@@ -149,8 +149,21 @@ STUDIES: dict[str, Study] = {
          "bce_dice_30_epochs": {"loss": "bce_dice", "epochs": 30}},
         base={"recipe": "tiny_step_even", "preset": "tiny_norm"},
     ),
+    "hybrid": Study(
+        "hybrid",
+        "The orbit is known and the same for every sample, yet E2V never sees it, while the "
+        "visual hull uses it but needs the grey video. Does a model that also reads the "
+        "event frames lifted through the known orbit (e2vlib.geometry.lift_frames) reach "
+        "the hull from events alone, and where should the lifted volume enter?",
+        {"e2v": {},
+         "hybrid_early": {"preset": "hybrid_early"},
+         "hybrid_late": {"preset": "hybrid_late"},
+         "lifted_unet": {"preset": "lifted_unet"}},
+        base={"recipe": "tiny_step_even", "preset": "tiny_norm", "loss": "bce_dice",
+              "epochs": 30},
+    ),
 }
-"""The studies of lessons 09-13, by name."""
+"""The studies of lessons 09-13 and 15, by name."""
 
 
 COLLAPSE_IOU = 0.2

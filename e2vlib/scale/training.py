@@ -26,10 +26,10 @@ from e2vlib.model import (
     CheckpointError,
     E2VConfig,
     check_frames_match,
-    check_state_matches,
     checkpoint_data_config,
     read_checkpoint,
 )
+from e2vlib.model.integrity import check_state_matches
 from e2vlib.scale.options import PRECISIONS
 from e2vlib.train.devices import model_device, resolve_device
 from e2vlib.train.loop import FitHooks, fit

@@ -133,7 +133,8 @@ def ship_samples(data: str | os.PathLike = DATA_DIR,
     bounded, its digest the manifest's) before anything is written; every file is then
     written to a temporary name and renamed. A row missing from ``data``, an ``out`` that
     is, holds or lies in ``data`` or is a file (:func:`check_ship_out`) are refused."""
-    from e2vlib.data.checks import inside, read_config, read_manifest_rows
+    from e2vlib.data.checks import inside, read_config
+    from e2vlib.data.manifest import read_manifest
     from e2vlib.experiments.real_meshes import MAPPING_CSV
 
     data, out = Path(data), Path(out)
@@ -144,7 +145,7 @@ def ship_samples(data: str | os.PathLike = DATA_DIR,
     rows = shippable_rows(read_catalogue(catalogue))
     inside(data.resolve(), data / "manifest.csv")
     inside(data.resolve(), data / "config.json")
-    built = {r["id"]: r for r in read_manifest_rows(data)}
+    built = {r["id"]: r for r in read_manifest(data)}
     missing = [row.id for row in rows if row.id not in built]
     if missing:
         raise ValueError(f"{len(missing)} shippable rows are not built in {data} "
