@@ -43,7 +43,7 @@ class CheckpointError(ValueError):
     >>> try:
     ...     read_checkpoint(junk)
     ... except CheckpointError as err:
-    ...     print(isinstance(err, ValueError), "is corrupted, truncated" in str(err))
+    ...     print(isinstance(err, ValueError), "junk.pt" in str(err))
     True True
 
     Introduced in notebooks/05_the_e2v_model.ipynb.
