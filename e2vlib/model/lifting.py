@@ -47,8 +47,8 @@ class Lifting(nn.Module):
             look_up = torch.sparse_coo_tensor(
                 torch.from_numpy(np.stack([np.tile(np.arange(voxels), n_frames),
                                            column.ravel()])),
-                torch.ones(column.size), (voxels, n_frames * pixels),
-                check_invariants=True).coalesce().to_sparse_csr()
+                torch.ones(column.size, device="cpu"), (voxels, n_frames * pixels),
+                check_invariants=True, device="cpu").coalesce().to_sparse_csr()
         self.merge_frames = merge_frames
         self.register_buffer("look_up", look_up, persistent=False)
 
