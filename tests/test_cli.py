@@ -19,6 +19,7 @@ from e2vlib.events import make_events
 from e2vlib.io import save_events
 from e2vlib.model import read_checkpoint
 
+from .cli_run import run_main
 from .conftest import REPO
 
 
@@ -108,15 +109,8 @@ def test_reconstruct_from_mesh_and_events(trained):
 
 
 def run(capsys, *argv) -> tuple[int, str, str]:
-    """Run the CLI in-process; return (exit status, stdout, stderr) after checking that an
-    error is exactly one line ``error: ...`` and that no traceback is shown."""
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    if code != 0:
-        lines = [line for line in err.splitlines() if line.strip()]
-        assert len(lines) == 1 and lines[0].startswith("error: "), err
-        assert "Traceback" not in err
-    return code, out, err
+    """Run the CLI in-process (:func:`tests.cli_run.run_main`)."""
+    return run_main(main, capsys, *argv)
 
 
 TRAIN = ("train", "--data", "nowhere", "--out", "nowhere_run")

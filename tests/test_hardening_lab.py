@@ -19,6 +19,7 @@ import pytest
 from e2vlib.experiments.real_objects import __main__ as real_objects_cli
 from e2vlib.experiments.real_objects import ship
 
+from .cli_run import run_main
 from .conftest import REPO
 
 SHIPPED = REPO / "data_small" / "real_objects"
@@ -26,15 +27,8 @@ UNIX = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs and /de
 
 
 def run_real_objects(capsys, *argv) -> tuple[int, str, str]:
-    """``python -m e2vlib.experiments.real_objects ARGV`` in-process: (exit status, stdout,
-    stderr), checking that an error is one line ``error: ...`` without a traceback."""
-    code = real_objects_cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    if code != 0:
-        lines = [line for line in err.splitlines() if line.strip()]
-        assert len(lines) == 1 and lines[0].startswith("error: "), err
-        assert "Traceback" not in err
-    return code, out, err
+    """``python -m e2vlib.experiments.real_objects ARGV`` in-process (:func:`run_main`)."""
+    return run_main(real_objects_cli.main, capsys, *argv)
 
 
 # --------------------------------------------------------------------------- ship
