@@ -547,6 +547,7 @@ REFUSED = {  # variant -> what the one-line refusal says
     "nan": "holds non-finite weights",
     "truncated": "corrupted, truncated or not a torch file",
     "empty": "is empty (0 bytes)",
+    "random": "corrupted or not a torch file",  # not "holds Python objects": it asks for none
 }
 
 
@@ -563,7 +564,8 @@ class _Payload:
 @pytest.fixture(scope="module")
 def variants(tmp_path_factory):
     """data_small's tiny checkpoint changed: a pickle payload, int32 / float64 / bf16 / NaN
-    weights (no digest, as another program would write them), cut in half, empty."""
+    weights (no digest, as another program would write them), cut in half, empty, random
+    bytes."""
     import torch
 
     from e2vlib.model import read_checkpoint
@@ -585,6 +587,7 @@ def variants(tmp_path_factory):
     data = source.read_bytes()
     (folder / "truncated.pt").write_bytes(data[: len(data) // 2])
     (folder / "empty.pt").write_bytes(b"")
+    (folder / "random.pt").write_bytes(np.random.default_rng(0).bytes(5000))
     return folder
 
 
@@ -663,3 +666,25 @@ def test_resuming_from_int32_weights_is_refused_by_the_library_too(variants):
     with pytest.raises(CheckpointError, match="holds torch.int32 values where the model has "
                                               "torch.float32"):
         read_resume_state(variants / "int32.pt", model, None, torch.device("cpu"), loss)
+
+
+@pytest.mark.parametrize("key, value", [("epoch", "three"), ("epoch", 2.5), ("best_iou", None),
+                                        ("history", "none")])
+def test_resuming_from_a_last_pt_with_damaged_bookkeeping_names_the_file(tmp_path, variants,
+                                                                         key, value):
+    import torch
+
+    from e2vlib.model import CheckpointError, load_checkpoint, read_checkpoint
+    from e2vlib.scale.training import LEGACY_LOSS, read_resume_state
+
+    state = read_checkpoint(variants / "float64.pt", verify=False)
+    model = load_checkpoint(variants / "float64.pt")
+    loss = state.get("loss", LEGACY_LOSS)
+    good = tmp_path / "good.pt"
+    torch.save({**state, "model": model.state_dict()}, good)
+    assert read_resume_state(good, model, None, torch.device("cpu"), loss)["epoch"] == 1
+    bad = tmp_path / "last.pt"
+    torch.save({**state, "model": model.state_dict(), key: value}, bad)
+    with pytest.raises(CheckpointError, match=rf"^cannot resume from {re.escape(str(bad))}: "
+                                              rf"its {key} is "):
+        read_resume_state(bad, model, None, torch.device("cpu"), loss)

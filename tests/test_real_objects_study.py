@@ -42,7 +42,7 @@ def results_of(per_object: dict[str, list[list[float]]], hull: list[float],
 def test_summary_means_over_seeds_and_intervals_over_seeds_or_objects():
     r = results_of({"real": [[0.2, 0.4, 0.6, 0.8], [0.4, 0.6, 0.8, 1.0]]},
                    hull=[0.5, 0.5, 0.5, 0.5], categories=["chair", "chair", "lamp", "lamp"])
-    s = study.summarize(r)
+    s = study.summarize_real_objects(r)
     assert s["real"]["n_seeds"] == 2
     assert s["real"]["mean"] == pytest.approx(0.6)  # seeds' means 0.5 and 0.7
     lo, hi = s["real"]["ci95"]  # t(1) = 12.706, standard error 0.1
@@ -121,7 +121,7 @@ def test_quick_study_records_every_config_and_the_baselines(quick_study):
     # a hull of a box scored against each object's own label: IoU within [0, 1], all recorded
     hull = results["baselines"]["visual_hull"]["per_object"]["iou@0.3"]
     assert len(hull) == n and all(0 <= v <= 1 for v in hull)
-    assert "visual_hull" in study.format_table(results)
+    assert "visual_hull" in study.format_real_objects_table(results)
 
 
 @pytest.mark.slow

@@ -91,6 +91,9 @@ def run_one(protocol: Protocol, seed: int, device: str = "auto", workdir: Path |
                                                      threshold=threshold)))
     metrics["per_category_iou@0.3"] = {c: float(v["iou@0.3"])
                                       for c, v in result["per_category"].items()}
+    # each test object's IoU@0.3 by id: paired intervals against the geometry baselines
+    metrics["per_object_iou@0.3"] = dict(zip(test.ids, map(float, iou(
+        test_probabilities, test.voxels, threshold=0.3)), strict=True))
     def other_test(name: str, changes: dict, at_val_threshold: bool) -> None:
         """Score the same model on another test split: ``name:iou@0.3`` etc."""
         other = load_split(protocol.updated(changes), "test", progress)

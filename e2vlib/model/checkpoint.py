@@ -160,6 +160,13 @@ def read_checkpoint(path: str | os.PathLike, map_location: str | torch.device = 
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
     except pickle.UnpicklingError as err:  # objects beyond tensors: never run
+        if "global" not in str(err).lower():  # random bytes: no object asked for, just junk
+            found = re.search(r"error:\s*(\S[^\n]*)", str(err))
+            why = f": {found.group(1)[:80]}" if found else ""
+            raise CheckpointError(
+                f"cannot read checkpoint {path}: it is corrupted or not a torch file (its "
+                f"bytes do not unpickle{why}). Re-create it with save_checkpoint or copy it "
+                "again.") from None
         found = re.search(r"GLOBAL ([\w.]+)", str(err))
         what = f" (it asks for {found.group(1)})" if found else ""
         raise CheckpointError(

@@ -13,6 +13,7 @@ training") for what each speed option gains.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -271,6 +272,20 @@ def read_resume_state(path: Path, model: E2V, data_config: dict | None,
             f"loss={loss!r} was given. Resume with loss={stored_loss!r}, or train with "
             f"loss={loss!r} into another folder.")
     check_frames_match(checkpoint_data_config(state), data_config, path, "the training data")
+    for key, kind in (("epoch", int), ("best_iou", float)):  # bookkeeping fit wrote
+        value = state[key]
+        if (isinstance(value, bool) or not isinstance(value, (int, float, torch.Tensor))
+                or (isinstance(value, torch.Tensor) and value.numel() != 1)
+                or not math.isfinite(float(value)) or float(value) < 0
+                or (kind is int and float(value) != int(value))):
+            raise CheckpointError(
+                f"cannot resume from {path}: its {key} is {str(value)[:40]!r}, not a "
+                f"{'whole number' if kind is int else 'score'} (a damaged or hand-edited "
+                "last.pt); start a new run without --resume, e.g. into another folder.")
+    if not isinstance(state["history"], list):
+        raise CheckpointError(f"cannot resume from {path}: its history is not a list (a "
+                              "damaged or hand-edited last.pt); start a new run without "
+                              "--resume, e.g. into another folder.")
     return state
 
 

@@ -79,7 +79,7 @@ def _study(args: argparse.Namespace, argv: list[str]) -> None:
                                       command=command)
     results = study.read_table(path)  # the one checked reader, and the table's scores
     for key in study.TABLE_KEYS:
-        print(study.format_table(results, key), end="\n\n")
+        print(study.format_real_objects_table(results, key), end="\n\n")
 
 
 def build_parser(parser_class: type[argparse.ArgumentParser] = argparse.ArgumentParser

@@ -382,7 +382,7 @@ def paired_with(results: dict, method: str, other: str = "visual_hull",
             "ci95": metrics.interval95(diff.tolist()), "wins": int((diff > 0).sum())}
 
 
-def summarize(results: dict, key: str = "iou@val_threshold") -> dict:
+def summarize_real_objects(results: dict, key: str = "iou@val_threshold") -> dict:
     """Per config and baseline: ``{"n_seeds", "mean", "ci95", "per_category"}``. A config's
     mean and interval are over its seeds (each seed's mean over the test objects); a
     baseline has one value (its mean over objects, interval over objects); per category:
@@ -428,7 +428,8 @@ def _per_object_problem(scores: object, n: int, where: str) -> str | None:
 
 
 def read_table(path: str | os.PathLike) -> dict:
-    """The recorded ``real_objects`` study at ``path`` as :func:`format_table` reads it:
+    """The recorded ``real_objects`` study at ``path`` as :func:`format_real_objects_table`
+    reads it:
     through the one checked reader (:func:`~e2vlib.experiments.runner.read_results`:
     regular file, size bound, strict JSON, every record), then each record's and
     baseline's per-object scores (:data:`TABLE_KEYS`: one finite fraction per test object).
@@ -460,10 +461,10 @@ def read_table(path: str | os.PathLike) -> dict:
     return results
 
 
-def format_table(results: dict, key: str = "iou@val_threshold") -> str:
+def format_real_objects_table(results: dict, key: str = "iou@val_threshold") -> str:
     """The headline table: per method, the mean IoU with its 95 % interval, the paired
     difference with the visual hull, and the per-category means."""
-    summary = summarize(results, key)
+    summary = summarize_real_objects(results, key)
     categories = list(next(iter(summary.values()))["per_category"]) if summary else []
     hull = "visual_hull" in results.get("baselines", {})
     lines = [f"{'method':<18} {'seeds':>5} {key:>24} {'minus hull (wins)':>32}  "
@@ -496,7 +497,7 @@ def plot_real_objects(results: dict, key: str = "iou@val_threshold"):
     Returns the figure."""
     import matplotlib.pyplot as plt
 
-    summary = summarize(results, key)
+    summary = summarize_real_objects(results, key)
     names = [n for n in FIGURE_ORDER if n in summary]
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.6), layout="constrained",
                                       gridspec_kw={"width_ratios": [1.4, 1]})
