@@ -429,8 +429,7 @@ def _per_object_problem(scores: object, n: int, where: str) -> str | None:
 
 def read_table(path: str | os.PathLike) -> dict:
     """The recorded ``real_objects`` study at ``path`` as :func:`format_real_objects_table`
-    reads it:
-    through the one checked reader (:func:`~e2vlib.experiments.runner.read_results`:
+    reads it: through the one checked reader (:func:`~e2vlib.experiments.runner.read_results`:
     regular file, size bound, strict JSON, every record), then each record's and
     baseline's per-object scores (:data:`TABLE_KEYS`: one finite fraction per test object).
     Raises ValueError (FileNotFoundError when missing) naming the file and the fix."""
