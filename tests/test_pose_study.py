@@ -1,0 +1,71 @@
+"""The pose-error study: the exact level is data_small itself; an error moves what is seen,
+never the label."""
+
+import json
+
+import numpy as np
+import pytest
+
+from e2vlib.data import BuildConfig, load_sample, read_manifest
+from e2vlib.experiments import pose_study as ps
+
+from .conftest import REPO
+
+DATA = REPO / "data_small"
+
+
+@pytest.fixture(scope="module")
+def row():
+    return next(r for r in read_manifest(DATA) if r["id"] == "lamp_0013")
+
+
+@pytest.fixture(scope="module")
+def config():
+    return BuildConfig.from_dict(json.loads((DATA / "config.json").read_text()))
+
+
+def test_a_pose_error_is_a_rotation_by_the_angle_and_a_shrink_by_the_radius():
+    t = ps.pose_error(2.0, 0.10, seed=7)
+    m = t[:3, :3] * 1.10  # the rotation part
+    assert np.allclose(m @ m.T, np.eye(3)) and np.isclose(np.linalg.det(m), 1.0)
+    assert np.isclose(np.degrees(np.arccos((np.trace(m) - 1) / 2)), 2.0)
+    assert np.allclose(t[:3, 3], 0) and np.allclose(t[3], [0, 0, 0, 1])
+    assert np.allclose(ps.pose_error(0, 0, seed=3), np.eye(4))
+    assert not np.allclose(ps.pose_error(2, 0, seed=1), ps.pose_error(2, 0, seed=2))  # the axis
+    with pytest.raises(ValueError, match="radius_error > -1"):
+        ps.pose_error(1.0, -1.0, seed=0)
+
+
+def test_the_exact_level_is_data_smalls_sample_and_the_geometry_studys_scores(row, config):
+    from e2vlib.geometry import score_occupancy
+
+    seen = ps.perturbed_object(row, config, "exact")
+    frames, voxels = load_sample(DATA / "samples" / f"{row['id']}.npz")
+    assert np.array_equal(seen["frames"], frames) and np.array_equal(seen["label"], voxels)
+    recorded = next(r for r in json.loads((REPO / "experiments" / "results" / "geometry.json")
+                                          .read_text())["runs"] if r["id"] == row["id"])
+    for grid, method in ((seen["hull"], "visual_hull"), (seen["carved"], "events_carving")):
+        assert score_occupancy(grid, seen["label"])["iou@0.3"] == pytest.approx(
+            recorded["scores"][method]["iou@0.3"], abs=1e-12)
+
+
+def test_a_wider_orbit_than_assumed_shrinks_the_hull_but_not_the_label(row, config):
+    exact = ps.perturbed_object(row, config, "exact")
+    wide = ps.perturbed_object(row, config, "radius_10pct")
+    assert np.array_equal(wide["label"], exact["label"])
+    ratio = (wide["hull"] > 0.5).sum() / (exact["hull"] > 0.5).sum()
+    assert 0.6 < ratio < 0.9  # about 1 / 1.1 ** 3 = 0.75 of the volume
+    assert not np.array_equal(wide["frames"], exact["frames"])
+
+
+def test_the_first_rows_of_each_category():
+    rows = [{"category": c, "id": i} for i, c in enumerate("aabbba")]
+    assert [r["id"] for r in ps.first_per_category(rows, 2)] == [0, 1, 2, 3]
+    assert len(ps.first_per_category(rows, None)) == 6
+
+
+def test_a_bad_checkpoint_argument_fails_like_the_main_command_line(capsys, tmp_path):
+    assert ps.main(["--out", str(tmp_path), "--checkpoint", "no-equals-sign"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --checkpoint must look like NAME=PATH") and "\n" == err[-1]
+    assert not (tmp_path / "pose.json").exists()
