@@ -321,9 +321,11 @@ def test_slim_checkpoint_keeps_the_training_loss(tmp_path):
 
 
 @pytest.mark.slow  # end to end, seconds: runs in make test-all
-def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
-    """e2v_tiny.pt scores, on data_small's test split, exactly the test IoU@0.3 its capstone
-    record holds, with the record's threshold, data settings and provenance."""
+@pytest.mark.parametrize("name", ["e2v_tiny.pt", "hybrid_early.pt"])
+def test_the_shipped_study_checkpoints_are_their_recorded_runs(name):
+    """e2v_tiny.pt (capstone) and hybrid_early.pt (hybrid study) score, on data_small's test
+    split, exactly the test IoU@0.3 their study records hold, with the record's threshold,
+    data settings and provenance; the hybrid's every test object as recorded."""
     import json
 
     from e2vlib.data import E2VDataset
@@ -331,7 +333,7 @@ def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
     from e2vlib.metrics import score_split
     from e2vlib.train import predict
 
-    best = REPO / "data_small" / "checkpoints" / "e2v_tiny.pt"
+    best = REPO / "data_small" / "checkpoints" / name
     state = read_checkpoint(best)
     origin = state["provenance"]
     results = json.loads((REPO / "experiments" / "results" / f"{origin['study']}.json")
@@ -345,3 +347,9 @@ def test_the_shipped_best_checkpoint_is_the_recorded_capstone_run():
     probabilities = predict(load_checkpoint(best), test.frames, "cpu")
     scores = score_split(probabilities, test.voxels, test.categories)["overall"]
     assert scores["iou@0.3"] == pytest.approx(run["metrics"]["iou@0.3"], abs=1e-6)
+    per_object = run["metrics"].get("per_object_iou@0.3")
+    if per_object is not None:
+        from e2vlib.metrics import iou
+
+        values = iou(probabilities, test.voxels, threshold=0.3)
+        assert dict(zip(test.ids, values.tolist(), strict=True)) == pytest.approx(per_object)
