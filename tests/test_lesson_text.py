@@ -26,15 +26,16 @@ from .conftest import REPO
 
 LESSONS = sorted((REPO / "notebooks").glob("[0-9][0-9]_*.ipynb"))
 RUN_TIME_LINE = re.compile(r"^\*\*Run time:\*\*.*$", re.MULTILINE)
-WORD_BUDGET = 20_000
+WORD_BUDGET = 21_500
 """Words of prose over all lessons: Markdown typed in the notebooks plus Markdown their code
 generates (``display(Markdown(...))``)."""
 WORDS = {  # lesson -> (typed Markdown words, generated Markdown words) it may hold
-    "00": (1118, 170), "01": (1086, 83), "02": (1362, 83), "03": (1499, 250),
+    "00": (1138, 170), "01": (1086, 83), "02": (1362, 83), "03": (1499, 250),
     "04": (1169, 146), "05": (1366, 130), "06": (1487, 236), "07": (1472, 102),
     "08": (1171, 3), "09": (1021, 200), "10": (1021, 246), "11": (840, 240),
     "12": (875, 252), "13": (956, 300),
     "14": (915, 200),
+    "15": (1200, 230),
 }
 """Each lesson's share of :data:`WORD_BUDGET`; tests/test_lessons.py checks the generated
 share of every lesson it runs."""

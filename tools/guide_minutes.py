@@ -59,6 +59,7 @@ CORE = {
     "12": ["1", "3"],
     "13": ["1", "2", "3", "4!"],
     "14": ["1", "3", "4"],
+    "15": ["1", "2", "4", "5"],
 }
 """Each lesson's core sections (the rest is optional), as the guide lists them."""
 
