@@ -13,7 +13,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 SCRIPTS = ["bench_frames.py", "bench_simulate.py", "bench_dataset.py", "bench_model.py",
            "bench_training.py", "bench_recipe.py", "bench_final_recipe.py",
-           "bench_notebooks.py", "bench_tests.py"]
+           "bench_notebooks.py", "bench_tests.py", "bench_lifting.py"]
 
 if __name__ == "__main__":
     only = sys.argv[1:]

@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,149 lines)::
+Module map (``python tools/module_map.py --write``; 25,606 lines)::
 
-    lines per band: core 14,712 · speed and scale 1,156 · lab 8,068 · command line 1,213
+    lines per band: core 14,719 · speed and scale 1,171 · lab 8,503 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -50,8 +50,8 @@ Module map (``python tools/module_map.py --write``; 25,149 lines)::
     io.py                  635  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                1995  The E2V model
-      checkpoint.py        377  E2V checkpoint files
+    model/                2002  The E2V model
+      checkpoint.py        384  E2V checkpoint files
       config.py            318  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          274  E2V's encoders
@@ -92,20 +92,22 @@ Module map (``python tools/module_map.py --write``; 25,149 lines)::
       style.py              24  The lessons' colours and default views
       widgets.py           192  Widgets around a matplotlib picture that still shows where ...
     voxels.py              472  Occupancy grids
-    scale/                1156  Speed and scale
+    scale/                1171  Speed and scale
       frames_numba.py      358  Frames from events with compiled (numba) kernels
       options.py             7  The choices of fit_at_scale's options, importable without ...
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
-      training.py          360  Training at scale
-    experiments/          8068  The lab
+      training.py          375  Training at scale
+    experiments/          8503  The lab
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         333  A study a student runs inside a lesson
       errors.py            129  How a command fails
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
       geometry_study.py    273  The geometry study
+      hybrid_study.py      127  The hybrid study read object by object
       loader.py            182  A study protocol's splits as model inputs, kept in memory ...
+      pose_study.py        305  The pose study
       protocol.py          256  A study's protocol
       provenance.py         58  Where a record was made
       real_meshes/        1483  Real third-party meshes of the paper's categories, from ...
@@ -128,7 +130,7 @@ Module map (``python tools/module_map.py --write``; 25,149 lines)::
       real_study.py        421  Scoring on real meshes
       reconstruct.py       327  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           240  Recorded results, read the same way by every lesson
-      runner.py            570  Running studies
+      runner.py            573  Running studies
       shipping.py           94  Ship one recorded run's model
       studies.py           183  The studies
       summary.py           167  A study's results as numbers
