@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,606 lines)::
+Module map (``python tools/module_map.py --write``; 25,627 lines)::
 
-    lines per band: core 14,719 · speed and scale 1,171 · lab 8,503 · command line 1,213
+    lines per band: core 14,740 · speed and scale 1,171 · lab 8,503 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -44,8 +44,8 @@ Module map (``python tools/module_map.py --write``; 25,606 lines)::
     files.py               200  Crash-safe file writing
     frames.py              383  Event representations
     geometry.py            495  Geometry baselines without learning
-    inputs/                454  Model inputs
-      representations.py   269  Model inputs from events
+    inputs/                473  Model inputs
+      representations.py   286  Model inputs from events
       tensors.py           148  A split held in memory
     io.py                  635  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits

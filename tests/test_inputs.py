@@ -18,6 +18,7 @@ from e2vlib.frames import (
 )
 from e2vlib.inputs import (
     REPRESENTATIONS,
+    events_to_input,
     input_channels,
     orbit_input,
     recording_input,
@@ -196,6 +197,8 @@ def test_orbit_input_gives_the_old_events_to_input(stream, name):
         old = _old_events_to_input(events, (width, height), name, frame_size, 12, 5000, t0)
         _same(orbit_input(events, (width, height), frame_size, representation=name,
                           n_frames=12, dt_us=5000, t0_us=t0), old)
+        # the published contract's name and argument order (tests outside the repo call it)
+        _same(events_to_input(events, (width, height), name, frame_size, 12, 5000, t0), old)
 
 
 @pytest.mark.parametrize("stream", list(STREAMS) + list(NON_SQUARE))

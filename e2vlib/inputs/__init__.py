@@ -8,7 +8,9 @@ two modules:
                              :func:`input_channels`) made by one pair of functions:
                              :func:`orbit_input` (a simulated orbit's clock, what the
                              dataset builder stores) and :func:`recording_input` (a
-                             recording's own clock and sensor); grey-frame inputs
+                             recording's own clock and sensor); ``events_to_input``, the
+                             published contract's order of ``orbit_input``'s arguments;
+                             grey-frame inputs
                              (:data:`GREY_INPUTS`, :func:`grey_input`)
 ``inputs.tensors``           :class:`TensorSet` (inputs and labels of a split as tensors,
                              indexed like a dataset) and :func:`preload`
@@ -29,8 +31,8 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
     __name__,
     submod_attrs={
         "representations": [
-            "GREY_INPUTS", "REPRESENTATIONS", "grey_input", "input_channels", "orbit_input",
-            "recording_input",
+            "GREY_INPUTS", "REPRESENTATIONS", "events_to_input", "grey_input",
+            "input_channels", "orbit_input", "recording_input",
         ],
         "tensors": ["TensorSet", "preload"],
     },

@@ -238,6 +238,23 @@ def recording_input(
                       windows)
 
 
+def events_to_input(events: np.ndarray, sensor_size: tuple[int, int],
+                    representation: str = "binary", frame_size: int = paper.FRAME_SIZE_PX,
+                    n_frames: int = paper.N_EVENT_FRAMES, dt_us: int = paper.DT_US,
+                    t0_us: int = 0) -> np.ndarray:
+    """:func:`orbit_input` with the argument order of the collection's published contract
+    (``representation`` third), which code outside this repository calls; the lessons and
+    the library call :func:`orbit_input`.
+
+    >>> from e2vlib.events import make_events
+    >>> ev = make_events(x=[0, 3, 3], y=[0, 3, 3], t=[0, 6, 7], p=[1, -1, 1])
+    >>> events_to_input(ev, (4, 4), "count", frame_size=2, n_frames=2, dt_us=5)[1].tolist()
+    [[0.0, 0.0], [0.0, 2.0]]
+    """
+    return orbit_input(events, sensor_size, frame_size, representation=representation,
+                       n_frames=n_frames, dt_us=dt_us, t0_us=t0_us)
+
+
 GREY_INPUTS: dict[str, str] = {
     "grey_video": "the rendered grey frames of the same orbit at the event frames' times",
     "grey_single": "one grey view (the orbit's first frame), for a 2D encoder",
