@@ -48,13 +48,37 @@ QUESTION = ("The paper compares E2V with image-based methods only across papers 
             "test objects, next to the learned model and the mean shape?")
 
 
+def hull_from_video(video: np.ndarray, resolution: int) -> np.ndarray:
+    """The visual hull ``(32, 32, 32)`` of a rendered orbit ``video`` (``oversample`` x 119 + 1
+    frames): the silhouettes of its 120 video frames (every ``oversample``-th rendered frame)
+    carved with the orbit's known cameras at ``resolution`` px."""
+    from e2vlib import geometry
+    from e2vlib.render import orbit_cameras
+
+    step = (len(video) - 1) // (paper.N_VIDEO_FRAMES - 1)
+    silhouettes = geometry.silhouettes_from_video(video[::step])
+    return geometry.visual_hull(silhouettes, orbit_cameras(paper.N_VIDEO_FRAMES), resolution)
+
+
+def start_object_study(path: Path, study: str, question: str, protocol: dict) -> dict:
+    """The object study recorded at ``path`` (a new one when missing), refused when it was
+    made under another ``protocol``; shared by the geometry and pose studies."""
+    check_results_path(path)
+    results = read_results(path) or {"study": study, "question": question,
+                                     "protocol": protocol, "runs": []}
+    if results["protocol"] != protocol:
+        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
+                         f"use another --out folder to run this one ({protocol})")
+    return results
+
+
 def _object_record(item: dict, config, data: Path, events_root: Path, learned: np.ndarray,
                    mean_shape: np.ndarray, n_points: int) -> dict:
     """Scores of every method on one test object (``item``: a manifest row)."""
     from e2vlib import geometry
     from e2vlib.data import load_sample
     from e2vlib.io import load_events
-    from e2vlib.render import orbit_cameras, render_orbit
+    from e2vlib.render import render_orbit
     from e2vlib.shapes import make_shape, normalize_mesh
 
     _, label = load_sample(data / "samples" / f"{item['id']}.npz")
@@ -64,10 +88,7 @@ def _object_record(item: dict, config, data: Path, events_root: Path, learned: n
     video, _ = render_orbit(mesh, n_video_frames=paper.N_VIDEO_FRAMES, fps=paper.VIDEO_FPS,
                             resolution=config.resolution, oversample=config.oversample)
     # rendered oversample * 119 + 1 frames: every oversample-th is one of the 120 video frames
-    step = (len(video) - 1) // (paper.N_VIDEO_FRAMES - 1)
-    silhouettes = geometry.silhouettes_from_video(video[::step])
-    hull = geometry.visual_hull(silhouettes, orbit_cameras(paper.N_VIDEO_FRAMES),
-                                config.resolution)
+    hull = hull_from_video(video, config.resolution)
     hull_seconds = time.perf_counter() - started
     events_path = events_root / "events" / f"{item['id']}.npz"
     if not events_path.exists():
@@ -125,12 +146,7 @@ def run_geometry_study(out: str | os.PathLike = "experiments/results",
                 "events_method": "geometry.event_ray_density + fill_solid (defaults)",
                 "n_points": n_points, "limit_per_category": limit_per_category}
     path = Path(out) / "geometry.json"
-    check_results_path(path)
-    results = read_results(path) or {"study": "geometry", "question": QUESTION,
-                                     "protocol": protocol, "runs": []}
-    if results["protocol"] != protocol:
-        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
-                         f"use another --out folder to run this one ({protocol})")
+    results = start_object_study(path, "geometry", QUESTION, protocol)
     results["command"] = "python -m e2vlib experiment geometry"
     done = {r["id"] for r in results["runs"]}
     todo = [i for i in chosen if test.ids[i] not in done]

@@ -84,7 +84,7 @@ def perturbed_object(row: Mapping, config, level: str) -> dict:
     ``"exact"`` the frames are data_small's stored frames, bit for bit."""
     from e2vlib import geometry
     from e2vlib.data import mesh_to_sample
-    from e2vlib.render import orbit_cameras
+    from e2vlib.experiments.geometry_study import hull_from_video
     from e2vlib.scale.render_cache import render_orbit_cached
     from e2vlib.shapes import make_shape
 
@@ -102,11 +102,7 @@ def perturbed_object(row: Mapping, config, level: str) -> dict:
 
     sample = mesh_to_sample(make_shape(row["category"], seed), config, seed=seed,
                             renderer=moved_renderer)
-    video = video_of["video"]
-    step = (len(video) - 1) // (paper.N_VIDEO_FRAMES - 1)  # every step-th is a video frame
-    silhouettes = geometry.silhouettes_from_video(video[::step])
-    hull = geometry.visual_hull(silhouettes, orbit_cameras(paper.N_VIDEO_FRAMES),
-                                config.resolution)
+    hull = hull_from_video(video_of["video"], config.resolution)
     density = geometry.event_ray_density(sample.events, geometry.orbit_camera_at,
                                          sample.sensor_size[0])
     return {"frames": sample.frames, "label": sample.voxels.astype(bool), "hull": hull,
@@ -146,13 +142,9 @@ def run_pose_study(out: str | os.PathLike = "experiments/results",
     from tqdm.auto import tqdm
 
     from e2vlib.data import BuildConfig, read_manifest, save_sample
+    from e2vlib.experiments.geometry_study import start_object_study
     from e2vlib.experiments.provenance import git_commit
-    from e2vlib.experiments.runner import (
-        OBJECT_KEY,
-        check_results_path,
-        read_results,
-        update_results,
-    )
+    from e2vlib.experiments.runner import OBJECT_KEY, update_results
     from e2vlib.geometry import score_occupancy
 
     unknown = [level for level in levels if level not in POSE_LEVELS]
@@ -167,12 +159,7 @@ def run_pose_study(out: str | os.PathLike = "experiments/results",
                 "hull": f"{paper.N_VIDEO_FRAMES} grey video frames at {config.resolution} px",
                 "events_method": "geometry.event_ray_density + fill_solid (defaults)"}
     path = Path(out) / "pose.json"
-    check_results_path(path)
-    results = read_results(path) or {"study": "pose", "question": QUESTION,
-                                     "protocol": protocol, "runs": []}
-    if results["protocol"] != protocol:
-        raise ValueError(f"{path} holds runs of another protocol ({results['protocol']}); "
-                         f"use another --out folder to run this one ({protocol})")
+    results = start_object_study(path, "pose", QUESTION, protocol)
     results["command"] = COMMAND
     done = {r["id"] for r in results["runs"]}
     todo = [(level, r) for level in levels for r in rows if f"{level}/{r['id']}" not in done]
