@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,630 lines)::
+Module map (``python tools/module_map.py --write``; 25,638 lines)::
 
-    lines per band: core 14,740 · speed and scale 1,171 · lab 8,506 · command line 1,213
+    lines per band: core 14,748 · speed and scale 1,171 · lab 8,506 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -50,13 +50,13 @@ Module map (``python tools/module_map.py --write``; 25,630 lines)::
     io.py                  635  Read and write event files, converting every foreign ...
     losses.py              210  Training losses on occupancy logits
     metrics.py             406  Reconstruction metrics
-    model/                2002  The E2V model
+    model/                2010  The E2V model
       checkpoint.py        384  E2V checkpoint files
       config.py            318  E2V's configuration
       decoder.py           170  E2V's bridge and decoder
       encoders.py          274  E2V's encoders
       integrity.py         235  Is a checkpoint intact
-      lifting.py            91  The event frames lifted into the grid inside a network
+      lifting.py            99  The event frames lifted into the grid inside a network
       networks.py          270  The E2V network
       summary.py           182  Size and memory of an E2V
     noise.py               215  Sensor noise of a DVS pixel, added to the events of simulate

@@ -85,3 +85,18 @@ def test_an_e2v_config_stores_the_lift_defaults():
         E2VConfig(lift="middle")
     with pytest.raises(ValueError, match="one-channel square"):
         E2VConfig(lift="early", in_channels=2)
+
+
+def test_models_of_one_orbit_share_one_look_up_and_keep_it_unchanged(tiny_frames):
+    from e2vlib.model.lifting import look_up_matrix
+
+    first = build_e2v("lifted_unet", seed=0, input_shape=(12, 16, 16))
+    second = build_e2v("hybrid_early", seed=1, input_shape=(12, 16, 16))
+    other = build_e2v("lifted_unet", seed=0, input_shape=(10, 16, 16))
+    assert first.lifting.look_up is second.lifting.look_up  # built once for the orbit
+    assert other.lifting.look_up.shape[1] == 10 * (16 * 16 + 1)  # its own frames
+    before = look_up_matrix(12, 16, 5000).to_dense().clone()
+    first.double()  # a conversion makes the model its own copy, the shared one stays float
+    assert first.lifting.look_up.dtype == torch.float64
+    assert second.lifting.look_up.dtype == torch.float32
+    assert torch.equal(look_up_matrix(12, 16, 5000).to_dense(), before)

@@ -3,15 +3,16 @@
 A hybrid E2V (``E2VConfig.lift`` other than ``"none"``) reads, beside its encoder's features,
 the frames back-projected through the known orbit: :func:`e2vlib.geometry.lift_frames`
 written with torch so that it runs on the batch, on any device. The table of where each
-voxel centre lands in each frame (:func:`e2vlib.geometry.lifting_table`) is rebuilt from the
-config whenever a model is built, never stored in a checkpoint (26 MB at 100 frames). Tests
-show both give the same volumes.
+voxel centre lands in each frame (:func:`e2vlib.geometry.lifting_table`) is built from the
+config once per orbit and process (:func:`look_up_matrix`), never stored in a checkpoint
+(26 MB at 100 frames). Tests show both give the same volumes.
 
 Introduced in notebooks/15_learning_meets_geometry.ipynb.
 """
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -22,6 +23,26 @@ from torch import nn
 from e2vlib.geometry import LIFTED_CHANNELS, MERGE_FRAMES, lifting_table
 from e2vlib.model.config import GRID_SIDE, E2VConfig
 from e2vlib.model.encoders import conv_layer, norm_layer
+
+
+@functools.lru_cache(maxsize=4)
+def look_up_matrix(n_frames: int, resolution: int, dt_us: int) -> torch.Tensor:
+    """The lifting table as a sparse 0/1 CSR matrix ``(32^3, n_frames (resolution^2 + 1))``:
+    row ``v`` has a 1 at each frame's pixel under voxel ``v`` (the frame's extra last pixel,
+    always set, when the voxel projects outside it). Built once per orbit and process (about
+    1 s at 100 frames of 64 x 64) and shared by every model of that orbit: read-only."""
+    table = lifting_table(n_frames, dt_us, resolution, GRID_SIDE)
+    pixels = resolution * resolution + 1  # the extra pixel: outside the frame, always set
+    column = np.where(table < 0, pixels - 1, table) + pixels * np.arange(n_frames)[:, None]
+    voxels = table.shape[1]
+    # A sparse product sums, for every voxel, its pixel over the frames (a gather would copy
+    # n_frames x 32^3 values per sample first; this is about 20x faster on a CPU).
+    with warnings.catch_warnings():  # torch calls its sparse CSR support "beta"
+        warnings.simplefilter("ignore", UserWarning)
+        return torch.sparse_coo_tensor(
+            torch.from_numpy(np.stack([np.tile(np.arange(voxels), n_frames), column.ravel()])),
+            torch.ones(column.size, device="cpu"), (voxels, n_frames * pixels),
+            check_invariants=True, device="cpu").coalesce().to_sparse_csr()
 
 
 class Lifting(nn.Module):
@@ -35,22 +56,9 @@ class Lifting(nn.Module):
     def __init__(self, n_frames: int, resolution: int, dt_us: int,
                  merge_frames: int = MERGE_FRAMES) -> None:
         super().__init__()
-        table = lifting_table(n_frames, dt_us, resolution, GRID_SIDE)
-        pixels = resolution * resolution + 1  # the extra pixel: outside the frame, always set
-        column = np.where(table < 0, pixels - 1, table) + pixels * np.arange(n_frames)[:, None]
-        voxels = table.shape[1]
-        # The look-up as a sparse 0/1 matrix (voxels x frames' pixels laid end to end): one
-        # product sums, for every voxel, its pixel over the frames (a gather would copy
-        # n_frames x 32^3 values per sample first; this is about 20x faster on a CPU).
-        with warnings.catch_warnings():  # torch calls its sparse CSR support "beta"
-            warnings.simplefilter("ignore", UserWarning)
-            look_up = torch.sparse_coo_tensor(
-                torch.from_numpy(np.stack([np.tile(np.arange(voxels), n_frames),
-                                           column.ravel()])),
-                torch.ones(column.size, device="cpu"), (voxels, n_frames * pixels),
-                check_invariants=True, device="cpu").coalesce().to_sparse_csr()
         self.merge_frames = merge_frames
-        self.register_buffer("look_up", look_up, persistent=False)
+        self.register_buffer("look_up", look_up_matrix(n_frames, resolution, dt_us),
+                             persistent=False)
 
     @torch.no_grad()
     def forward(self, frames: torch.Tensor) -> torch.Tensor:
