@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,638 lines)::
+Module map (``python tools/module_map.py --write``; 25,738 lines)::
 
-    lines per band: core 14,748 · speed and scale 1,171 · lab 8,506 · command line 1,213
+    lines per band: core 14,749 · speed and scale 1,171 · lab 8,605 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -98,9 +98,10 @@ Module map (``python tools/module_map.py --write``; 25,638 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          375  Training at scale
-    experiments/          8506  The lab
+    experiments/          8605  The lab
+      build_cache.py        91  Datasets built once per machine and copied where a lesson ...
       caches.py             91  The dataset folders the studies read besides data_small, and ...
-      classroom.py         333  A study a student runs inside a lesson
+      classroom.py         339  A study a student runs inside a lesson
       errors.py            129  How a command fails
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...

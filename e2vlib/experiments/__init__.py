@@ -56,6 +56,8 @@ Imported by their module names (they run as commands, or load much):
 ``experiments.reconstruct``       one object reconstructed by a checkpoint, from a mesh or an
                                   event file (``python -m e2vlib reconstruct``)
 ``experiments.explore``           a dataset explorer for lesson 08
+``experiments.build_cache``       datasets built once per machine and copied where a lesson
+                                  asks for them (:func:`build_once`, the mini datasets)
 ``experiments.figures``           the README's pictures (``python -m e2vlib figures``)
 ================================  ===========================================================
 

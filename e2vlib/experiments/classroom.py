@@ -10,7 +10,7 @@ and :func:`~e2vlib.experiments.summary.summarize` reads them.
 
 Sizes (full mode, 2 CPU cores): 24 objects per category (20 train, 2 validation, 2 test after
 the 8:1:1 split), 32 px frames, :data:`CLASS_EPOCHS` epochs per run; quick mode (CI) 3 objects
-per category and 1 epoch, a smoke test of the same code.
+per category, 1 epoch and 2 seeds, a smoke test of the same code.
 
 Every run is then scored on the *class test set* (:func:`class_test_path`): new objects of the
 same three categories (another build seed), 26 per category in full mode, 78 in all, more than
@@ -40,8 +40,9 @@ CLASS_PER_CATEGORY = {"quick": 3, "full": 24}
 """Objects per category of the mini dataset (split 8:1:1 per category)."""
 CLASS_EPOCHS = {"quick": 1, "full": 30}
 """Epochs per class-study run."""
-CLASS_SEEDS = (0, 1, 2)
-"""Seeds of a class study: three, the fewest that give a 95 % interval of usable width."""
+CLASS_SEEDS = {"quick": (0, 1), "full": (0, 1, 2)}
+"""Seeds of a class study: three, the fewest that give a 95 % interval of usable width (quick
+mode, a smoke test: two, the fewest that give an interval at all)."""
 CLASS_FRAME_SIZE = 32
 """Frame side of the mini dataset in pixels (data_small uses 64)."""
 CLASS_TEST_PER_CATEGORY = {"quick": 1, "full": 26}
@@ -72,21 +73,24 @@ def build_mini_dataset(folder: str | os.PathLike, quick: bool, grey_video: bool 
     that change the input recompute it from them), with ``grey_video`` the grey video too, and
     the simulator's sensor ``noise`` preset. The class test set holds
     :data:`CLASS_TEST_PER_CATEGORY` new objects per category (build seed
-    :data:`CLASS_TEST_SEED`, test split only). A build resumes where an interrupted one stopped.
+    :data:`CLASS_TEST_SEED`, test split only). A build resumes where an interrupted one stopped;
+    one this machine has made before is copied (:func:`~e2vlib.experiments.build_cache.
+    build_once`), so lessons after the first get theirs in a second.
     """
-    from e2vlib.data import BuildConfig, build_dataset
+    from e2vlib.data import BuildConfig
+    from e2vlib.experiments.build_cache import build_once
 
     n = CLASS_PER_CATEGORY[_mode(quick)]
     config = BuildConfig(categories=CLASS_CATEGORIES, per_category=n, resolution=64,
                          frame_size=CLASS_FRAME_SIZE, oversample=2, raw_events_per_category=n,
                          grey_video=grey_video, noise=noise)
-    build_dataset(Path(folder), config, progress=progress)
+    build_once(folder, config, progress=progress)
     # 10 n planned objects per category put n in the test split (8:1:1); only those are built
     n_test = CLASS_TEST_PER_CATEGORY[_mode(quick)]
     test = BuildConfig(**{**config.__dict__, "per_category": 10 * n_test,
                           "raw_events_per_category": n_test, "seed": CLASS_TEST_SEED,
                           "splits": ("test",)})
-    build_dataset(class_test_path(folder), test, progress=progress)
+    build_once(class_test_path(folder), test, progress=progress)
     return Path(folder)
 
 
@@ -98,12 +102,14 @@ def class_overrides(data: str | os.PathLike, quick: bool, **changes) -> dict:
 
 
 def run_class_study(study: str, configs: Sequence[str], data: str | os.PathLike,
-                    out: str | os.PathLike, quick: bool, seeds: Sequence[int] = CLASS_SEEDS,
+                    out: str | os.PathLike, quick: bool, seeds: Sequence[int] | None = None,
                     metric: str = "iou@0.3", progress: bool = True, **changes) -> list[dict]:
     """Run ``configs`` of the recorded ``study`` on the mini dataset ``data`` for ``seeds``
-    (records in ``out/STUDY.json``, best checkpoints in ``out/checkpoints``; recorded runs are
-    skipped, so a rerun resumes) and return their rows scored on the class test set
+    (None: the mode's :data:`CLASS_SEEDS`; records in ``out/STUDY.json``, best checkpoints in
+    ``out/checkpoints``; recorded runs are skipped, so a rerun resumes) and return their rows
+    scored on the class test set
     (:func:`score_class_study`)."""
+    seeds = CLASS_SEEDS[_mode(quick)] if seeds is None else seeds
     run_study(study, list(configs), seeds=list(seeds), out=out, quick=True, progress=progress,
               base_overrides=class_overrides(data, quick, **changes),
               checkpoints=Path(out) / "checkpoints")
@@ -111,10 +117,10 @@ def run_class_study(study: str, configs: Sequence[str], data: str | os.PathLike,
 
 
 def score_class_study(study: str, configs: Sequence[str], data: str | os.PathLike,
-                      out: str | os.PathLike, seeds: Sequence[int] = CLASS_SEEDS,
+                      out: str | os.PathLike, seeds: Sequence[int] | None = None,
                       metric: str = "iou@0.3") -> list[dict]:
-    """The recorded class runs of ``configs`` (``seeds``), each scored on every object of the
-    class test set of ``data``, one row per config.
+    """The recorded class runs of ``configs`` (``seeds``; None: every recorded seed), each
+    scored on every object of the class test set of ``data``, one row per config.
 
     ``metric``: ``iou@T`` at a fixed threshold T, ``iou@val_threshold`` at the threshold each
     run picked on the validation objects; ``LEVEL:`` before it tests on events with sensor
@@ -139,7 +145,7 @@ def score_class_study(study: str, configs: Sequence[str], data: str | os.PathLik
     rows = []
     for config in configs:
         runs = sorted((r for r in results["runs"] if r["config"] == config
-                       and r["seed"] in set(seeds)), key=lambda r: r["seed"])
+                       and (seeds is None or r["seed"] in set(seeds))), key=lambda r: r["seed"])
         if not runs:
             raise ValueError(f"no runs of {study}/{config} are recorded in {out}")
         scores = []
