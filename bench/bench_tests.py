@@ -10,6 +10,7 @@ and nothing is written. Run on a quiet machine: ``python bench/bench_tests.py``.
 
 from __future__ import annotations
 
+import os
 import platform
 import re
 import shutil
@@ -24,6 +25,9 @@ from common import machine, write_section  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 LOG_DIR = REPO / "build" / "bench_tests"
 VENV = LOG_DIR / "venv"
+BUILD_CACHE = LOG_DIR / "build_cache"
+"""The lessons' dataset cache during the benchmark (``E2V_BUILD_CACHE``), empty at the start as
+on a new machine; the student's cache in the temporary folder is left alone."""
 SUMMARY = re.compile(r"^=+ (.*\d+ passed.*) in [\d.]+s.*=+$", re.M)
 
 
@@ -35,7 +39,8 @@ def run(target: str, label: str) -> dict:
     start = time.perf_counter()
     with log.open("w") as out:
         done = subprocess.run(["make", target, f"VENV={VENV.relative_to(REPO)}"], cwd=REPO,
-                              stdout=out, stderr=subprocess.STDOUT)
+                              stdout=out, stderr=subprocess.STDOUT,
+                              env={**os.environ, "E2V_BUILD_CACHE": str(BUILD_CACHE)})
     seconds = time.perf_counter() - start
     text = log.read_text()
     if done.returncode != 0:
@@ -46,8 +51,10 @@ def run(target: str, label: str) -> dict:
 
 
 def new_clone_state() -> None:
-    """No benchmark environment and no bytecode or numba cache in the repository."""
+    """No benchmark environment, no bytecode or numba cache in the repository, no dataset
+    build cache."""
     shutil.rmtree(VENV, ignore_errors=True)
+    shutil.rmtree(BUILD_CACHE, ignore_errors=True)
     for folder in REPO.glob("[!.]*/**/__pycache__"):
         if VENV not in folder.parents and "build" not in folder.parts:
             shutil.rmtree(folder, ignore_errors=True)
@@ -91,11 +98,12 @@ def main() -> str:
     body = f"""Command: `python bench/bench_tests.py`. Machine: {machine()}; CPU {cpu_details()}.
 
 Wall time of each command from the repository root, run once each in the benchmark's own
-environment (`build/bench_tests/venv`), starting as a new clone does: no bytecode, no numba
-cache. `make test` runs ruff, the import contracts, the doctests, the unit tests without the
-`slow` tier (10 Hypothesis examples per property) and every lesson in quick mode, in two
-pytest-xdist processes; `make test-all` (CI) adds the tests marked `slow` and the full
-Hypothesis counts (150).
+environment (`build/bench_tests/venv`), starting as a new clone on a new machine does: no
+bytecode, no numba cache, no dataset build cache (the lessons' mini datasets are built on the
+first run and copied on later ones, `experiments.build_cache`). `make test` runs ruff, the
+import contracts, the doctests, the unit tests without the `slow` tier (10 Hypothesis examples
+per property) and every lesson in quick mode, in two pytest-xdist processes; `make test-all`
+(CI) adds the tests marked `slow` and the full Hypothesis counts (150).
 
 | command | when | wall time | pytest's count |
 | --- | --- | --- | --- |
