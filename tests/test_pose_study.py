@@ -69,3 +69,39 @@ def test_a_bad_checkpoint_argument_fails_like_the_main_command_line(capsys, tmp_
     err = capsys.readouterr().err
     assert err.startswith("error: --checkpoint must look like NAME=PATH") and "\n" == err[-1]
     assert not (tmp_path / "pose.json").exists()
+
+
+def test_a_rerun_remakes_only_the_frames_that_are_gone_and_keeps_the_learned_scores(
+        tmp_path, monkeypatch):
+    """The perturbed objects are faked (a cube seen as itself): this checks the bookkeeping."""
+    made = []
+
+    def fake_object(row, config, level):
+        made.append(row["id"])
+        label = np.zeros((32, 32, 32), dtype=bool)
+        label[8:24, 8:24, 8:24] = True
+        return {"frames": np.zeros((4, 8, 8), dtype=np.uint8), "label": label, "n_events": 0,
+                "hull": label, "carved": np.zeros_like(label)}
+
+    monkeypatch.setattr(ps, "perturbed_object", fake_object)
+    run = {"out": tmp_path, "data": DATA, "cache": tmp_path / "cache", "levels": ("exact",),
+           "limit_per_category": 1, "progress": False}
+    path = ps.run_pose_study(**run)
+    first = list(made)
+    assert len(first) == len(set(first)) == 13  # one test object per category
+    results = json.loads(path.read_text())
+    results["runs"][0]["scores"]["a_model"] = {"iou@0.3": 0.5}
+    path.write_text(json.dumps(results))
+    gone = [results["runs"][i]["object"] for i in (0, 5)]
+    for object_id in gone:
+        (tmp_path / "cache" / "exact" / f"{object_id}.npz").unlink()
+
+    made.clear()
+    ps.run_pose_study(**run)
+    assert sorted(made) == sorted(gone)  # only the two whose frames were deleted
+    again = {r["id"]: r for r in json.loads(path.read_text())["runs"]}
+    assert len(again) == 13
+    record = again[f"exact/{gone[0]}"]
+    assert record["scores"]["a_model"] == {"iou@0.3": 0.5}
+    assert record["scores"]["visual_hull"]["iou@0.2"] == pytest.approx(1.0)
+    assert all((tmp_path / "cache" / "exact" / f"{o}.npz").exists() for o in gone)

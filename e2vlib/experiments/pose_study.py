@@ -161,19 +161,27 @@ def run_pose_study(out: str | os.PathLike = "experiments/results",
     path = Path(out) / "pose.json"
     results = start_object_study(path, "pose", QUESTION, protocol)
     results["command"] = COMMAND
-    done = {r["id"] for r in results["runs"]}
-    todo = [(level, r) for level in levels for r in rows if f"{level}/{r['id']}" not in done]
+    recorded = {r["id"]: r for r in results["runs"]}
+    # a recorded object whose kept frames are gone (a new machine, a cleared cache) is made
+    # again: add_checkpoints needs its frames, and the hull and carving give the same scores
+    todo = [(level, r) for level in levels for r in rows
+            if f"{level}/{r['id']}" not in recorded
+            or not _frames_path(cache, level, r["id"]).exists()]
     commit = git_commit()
     for level, row in tqdm(todo, desc="pose", unit="object", disable=not progress):
         seen = perturbed_object(row, config, level)
         frames_file = _frames_path(cache, level, row["id"])
         frames_file.parent.mkdir(parents=True, exist_ok=True)
         save_sample(frames_file, seen["frames"], seen["label"], n_events=seen["n_events"])
-        scores = {"visual_hull": score_occupancy(seen["hull"], seen["label"]),
+        record_id = f"{level}/{row['id']}"
+        old = recorded.get(record_id, {})
+        scores = {**old.get("scores", {}),  # the learned models' scores stay
+                  "visual_hull": score_occupancy(seen["hull"], seen["label"]),
                   "events_carving": score_occupancy(seen["carved"], seen["label"])}
-        results["runs"].append({"id": f"{level}/{row['id']}", "level": level,
-                                "object": row["id"], "category": row["category"],
-                                "scores": scores, "commit": commit})
+        results["runs"] = [r for r in results["runs"] if r["id"] != record_id]
+        results["runs"].append({"id": record_id, "level": level, "object": row["id"],
+                                "category": row["category"], "scores": scores,
+                                "commit": commit})
         results = update_results(path, results, OBJECT_KEY)
     return path
 
