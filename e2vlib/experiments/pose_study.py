@@ -138,7 +138,8 @@ def run_pose_study(out: str | os.PathLike = "experiments/results",
                    limit_per_category: int | None = None, progress: bool = True) -> Path:
     """Score the hull and event carving on every (level, test object) not yet recorded in
     ``OUT/pose.json``, keeping each perturbed object's event frames in ``cache`` for
-    :func:`add_checkpoints`; return the results path."""
+    :func:`add_checkpoints` (a recorded object whose kept frames are missing is made again,
+    its learned scores kept); return the results path."""
     from tqdm.auto import tqdm
 
     from e2vlib.data import BuildConfig, read_manifest, save_sample
