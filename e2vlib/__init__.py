@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,747 lines)::
+Module map (``python tools/module_map.py --write``; 25,751 lines)::
 
-    lines per band: core 14,749 · speed and scale 1,171 · lab 8,614 · command line 1,213
+    lines per band: core 14,749 · speed and scale 1,171 · lab 8,618 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -98,8 +98,8 @@ Module map (``python tools/module_map.py --write``; 25,747 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          375  Training at scale
-    experiments/          8614  The lab
-      build_cache.py        91  Datasets built once per machine and copied where a lesson ...
+    experiments/          8618  The lab
+      build_cache.py        95  Datasets built once per machine and copied where a lesson ...
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         339  A study a student runs inside a lesson
       errors.py            129  How a command fails

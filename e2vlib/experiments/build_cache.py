@@ -77,15 +77,19 @@ def build_once(folder: str | os.PathLike, config, progress: bool = True) -> Path
         build_dataset(folder, config, progress=progress)
         return folder
     cached = root / cache_key(config)
+    lock = FileLock(root / f"{cached.name}.lock")
     try:
         root.mkdir(parents=True, exist_ok=True)
-        with FileLock(root / f"{cached.name}.lock", timeout=LOCK_TIMEOUT_S):
-            if not cached.is_dir():
-                partial = root / f"{cached.name}.partial"
-                build_dataset(partial, config, progress=progress)
-                os.replace(partial, cached)
+        lock.acquire(timeout=LOCK_TIMEOUT_S)
     except (OSError, Timeout):  # no writable cache, or a build elsewhere that never ends
         build_dataset(folder, config, progress=progress)
         return folder
+    try:
+        if not cached.is_dir():
+            partial = root / f"{cached.name}.partial"
+            build_dataset(partial, config, progress=progress)
+            os.replace(partial, cached)
+    finally:
+        lock.release()
     shutil.copytree(cached, folder, dirs_exist_ok=True)
     return folder
