@@ -182,6 +182,30 @@ def test_a_missing_package_names_the_download_step(tmp_path):
         readers.read_model(tmp_path, "usr/share/games/flightgear/plane.ac")
 
 
+@pytest.mark.skipif(shutil.which("dpkg-deb") is None, reason="needs Debian's dpkg-deb")
+def test_extract_unpacks_into_a_new_cache_folder(tmp_path):
+    import subprocess
+
+    from e2vlib.experiments.real_objects import sources
+
+    tree = tmp_path / "tree"
+    (tree / "DEBIAN").mkdir(parents=True)
+    (tree / "DEBIAN" / "control").write_text(
+        "Package: tiny-data\nVersion: 1\nArchitecture: all\nMaintainer: x <x@y.z>\n"
+        "Description: a test package\n")
+    (tree / "usr" / "share").mkdir(parents=True)
+    (tree / "usr" / "share" / "model.ac").write_text("AC3Db\n")
+    cache = tmp_path / "cache"  # a new machine: only debs/ exists, pkgs/ does not yet
+    (cache / "debs").mkdir(parents=True)
+    subprocess.run(["dpkg-deb", "--build", str(tree), str(cache / "debs" / "tiny-data_1_all.deb")],
+                   check=True, capture_output=True)
+    times = sources.extract(cache, ["tiny-data"])
+    assert list(times) == ["tiny-data"]
+    assert (cache / "pkgs" / "tiny-data" / "usr" / "share" / "model.ac").read_text() == "AC3Db\n"
+    assert not (cache / "pkgs" / "tiny-data.part").exists()
+    assert sources.extract(cache, ["tiny-data"]) == {}  # unpacked once
+
+
 @pytest.mark.skipif(shutil.which("assimp") is None,
                     reason="assimp is not installed (apt-get install assimp-utils)")
 def test_assimp_converts_through_obj(tmp_path):

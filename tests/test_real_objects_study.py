@@ -118,6 +118,9 @@ def test_quick_study_records_every_config_and_the_baselines(quick_study):
     assert runs["fine_tuned"]["start"].endswith("quick/procedural_seed0.pt")
     assert runs["real"]["start"] is None
     assert runs["mixed"]["n_train"] == runs["procedural"]["n_train"] + runs["real"]["n_train"]
+    # the hybrid trains the lifted model on the same objects: more weights (the lift stem)
+    assert runs["hybrid_mixed"]["n_train"] == runs["mixed"]["n_train"]
+    assert runs["hybrid_mixed"]["n_parameters"] > runs["mixed"]["n_parameters"]
     # a hull of a box scored against each object's own label: IoU within [0, 1], all recorded
     hull = results["baselines"]["visual_hull"]["per_object"]["iou@0.3"]
     assert len(hull) == n and all(0 <= v <= 1 for v in hull)

@@ -82,6 +82,7 @@ def extract(cache: str | os.PathLike, packages: list[str] | None = None) -> dict
         start = time.monotonic()
         tmp = out.with_name(name + ".part")
         shutil.rmtree(tmp, ignore_errors=True)
+        tmp.parent.mkdir(parents=True, exist_ok=True)  # dpkg-deb makes the last folder only
         subprocess.run(["dpkg-deb", "-x", str(debs[-1]), str(tmp)], check=True)
         tmp.rename(out)
         times[name] = time.monotonic() - start

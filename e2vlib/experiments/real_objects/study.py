@@ -15,6 +15,10 @@ Dice, the per-step schedule with warm-up, the output started at even odds, prese
 ``mixed``       both training sets together, 16 epochs (about the procedural run's steps)
 ==============  ==========================================================================
 
+``hybrid_mixed`` is ``mixed`` with the hybrid of lesson 15 (preset ``hybrid_early``: the
+event frames also lifted through the known orbit, which the real objects' samples share
+with data_small's), so the hybrid meets the visual hull on the real test split too.
+
 ``fine_tuned_1/8``, ``_1/4`` and ``_1/2`` fine-tune on the first eighth, quarter or half of
 each category's real training objects for the same number of steps: the learning curve.
 Every run that sees real objects keeps its best epoch by IoU@0.3 on the real validation
@@ -63,13 +67,14 @@ COMMAND = "python -m e2vlib.experiments.real_objects study"
 @dataclass(frozen=True)
 class RealConfig:
     """One way to train: the training sets (``"procedural"``, ``"real"``), the epochs, the
-    run it starts from (``None``: fresh weights) and the share of each category's real
-    training objects used (its first ones)."""
+    run it starts from (``None``: fresh weights), the share of each category's real
+    training objects used (its first ones) and the model preset (``None``: :data:`BASE`'s)."""
 
     train: tuple[str, ...]
     epochs: int
     start: str | None = None
     real_fraction: float = 1.0
+    preset: str | None = None
 
 
 CONFIGS: dict[str, RealConfig] = {
@@ -79,6 +84,7 @@ CONFIGS: dict[str, RealConfig] = {
     "mixed": RealConfig(("procedural", "real"), 16),
     **{f"fine_tuned_1/{k}": RealConfig(("real",), 10 * k, "procedural", 1 / k)
        for k in (8, 4, 2)},
+    "hybrid_mixed": RealConfig(("procedural", "real"), 16, preset="hybrid_early"),
 }
 """The study's configs by name (the learning curve's keep the full run's steps)."""
 MAIN = ("procedural", "real", "fine_tuned", "mixed")
@@ -207,7 +213,7 @@ def run_config(name: str, seed: int, sets: dict, checkpoints: str | os.PathLike 
         best, seconds = load_checkpoint(PROCEDURAL_SEED0), None  # trained by the capstone
     else:
         if start is None:
-            model = build_e2v(protocol.preset, seed=seed,
+            model = build_e2v(config.preset or protocol.preset, seed=seed,
                               input_shape=tuple(train.frames.shape[-3:]))
         else:
             model = load_checkpoint(start)
@@ -484,7 +490,7 @@ def format_real_objects_table(results: dict, key: str = "iou@val_threshold") -> 
 
 CURVE = ("fine_tuned_1/8", "fine_tuned_1/4", "fine_tuned_1/2", "fine_tuned")
 """The learning curve's configs, fewest real training objects first."""
-FIGURE_ORDER = ("procedural", "real", "fine_tuned", "mixed", "visual_hull",
+FIGURE_ORDER = ("procedural", "real", "fine_tuned", "mixed", "hybrid_mixed", "visual_hull",
                 "category_oracle", "mean_shape")
 
 
