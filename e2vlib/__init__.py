@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,751 lines)::
+Module map (``python tools/module_map.py --write``; 25,851 lines)::
 
-    lines per band: core 14,749 · speed and scale 1,171 · lab 8,618 · command line 1,213
+    lines per band: core 14,749 · speed and scale 1,171 · lab 8,718 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -98,7 +98,7 @@ Module map (``python tools/module_map.py --write``; 25,751 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          375  Training at scale
-    experiments/          8618  The lab
+    experiments/          8718  The lab
       build_cache.py        95  Datasets built once per machine and copied where a lesson ...
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         339  A study a student runs inside a lesson
@@ -107,9 +107,9 @@ Module map (``python tools/module_map.py --write``; 25,751 lines)::
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
       geometry_study.py    289  The geometry study
       hybrid_study.py      127  The hybrid study read object by object
-      loader.py            182  A study protocol's splits as model inputs, kept in memory ...
-      pose_study.py        301  The pose study
-      protocol.py          256  A study's protocol
+      loader.py            191  A study protocol's splits as model inputs, kept in memory ...
+      pose_study.py        366  The pose study
+      protocol.py          272  A study's protocol
       provenance.py         58  Where a record was made
       real_meshes/        1483  Real third-party meshes of the paper's categories, from ...
         ac3d.py            224  A small reader of AC3D (.ac) models, the format of Debian's ...
@@ -117,7 +117,7 @@ Module map (``python tools/module_map.py --write``; 25,751 lines)::
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
         mapping.py         266  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_objects/       2797  Real objects of the paper's categories from Debian packages
+      real_objects/       2804  Real objects of the paper's categories from Debian packages
         __main__.py        177  The recorded commands that build the real-object catalogue ...
         build.py           296  Joins the candidates, the review, the duplicates and the ...
         catalogue.py       216  The committed catalogue of real objects and its checker
@@ -126,14 +126,14 @@ Module map (``python tools/module_map.py --write``; 25,751 lines)::
         readers.py         333  Readers of the real objects' formats, each giving one mesh ...
         samples.py         365  The real objects as samples a model trains on
         ship.py            177  The real objects a lesson may ship
-        sources.py         306  The Debian packages real objects come from
-        study.py           544  The real_objects study
+        sources.py         307  The Debian packages real objects come from
+        study.py           550  The real_objects study
       real_study.py        421  Scoring on real meshes
       reconstruct.py       327  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           240  Recorded results, read the same way by every lesson
       runner.py            573  Running studies
       shipping.py           94  Ship one recorded run's model
-      studies.py           183  The studies
+      studies.py           186  The studies
       summary.py           167  A study's results as numbers
     __main__.py             75  Command line
     cli/                  1138  The command line's parts: python -m e2vlib (__main__) runs them

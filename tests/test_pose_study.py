@@ -105,3 +105,53 @@ def test_a_rerun_remakes_only_the_frames_that_are_gone_and_keeps_the_learned_sco
     assert record["scores"]["a_model"] == {"iou@0.3": 0.5}
     assert record["scores"]["visual_hull"]["iou@0.2"] == pytest.approx(1.0)
     assert all((tmp_path / "cache" / "exact" / f"{o}.npz").exists() for o in gone)
+
+
+# ---------------------------------------------------------------- training under pose noise
+
+
+def test_orbit_error_draws_stay_in_bounds_and_depend_on_the_object_only():
+    draws = [ps.orbit_error_draw(2.0, 0.05, seed) for seed in range(200)]
+    angles, radii = np.array(draws).T
+    assert angles.min() >= 0 and angles.max() <= 2 and np.abs(radii).max() <= 0.05
+    assert radii.min() < -0.03 and radii.max() > 0.03  # both signs: wider and narrower
+    assert ps.orbit_error_draw(2.0, 0.05, 5) == draws[5]
+    assert ps.orbit_error_draw(0.0, 0.0, 5) == (0.0, 0.0)
+
+
+def test_labels_through_no_orbit_error_are_the_stored_labels():
+    rows = [r for r in read_manifest(DATA) if r["split"] == "train"][::97]
+    labels = ps.labels_through_orbit_error(DATA, [r["id"] for r in rows], (0.0, 0.0))
+    for row, label in zip(rows, labels, strict=True):
+        assert np.array_equal(label, load_sample(DATA / "samples" / f"{row['id']}.npz")[1])
+
+
+def test_the_frames_of_a_wider_orbit_pair_with_a_larger_label():
+    # frames filmed from 1.1x the assumed radius look like an object 1 / 1.1 the size: the
+    # true shape behind the stored frames is 1.1x larger. Its longest side already spans the
+    # grid and is cut there, so the volume grows about 1.1^2 = 1.21x (the wrong way, 0.83x)
+    row = next(r for r in read_manifest(DATA) if r["id"] == "cabinet_0000")
+    stored = load_sample(DATA / "samples" / "cabinet_0000.npz")[1]
+    wider = ps.label_through_orbit_error("cabinet", int(row["seed"]), 0.0, 0.10)
+    turned = ps.label_through_orbit_error("cabinet", int(row["seed"]), 5.0, 0.0)
+    assert 1.1 < wider.sum() / stored.sum() < 1.3
+    assert 0.9 < turned.sum() / stored.sum() < 1.1 and not np.array_equal(turned, stored)
+
+
+def test_a_pose_noise_protocol_remakes_train_and_val_labels_only():
+    from e2vlib.experiments.loader import load_split
+    from e2vlib.experiments.protocol import Protocol
+
+    plain = Protocol(per_category=1, frame_size=32)
+    noisy = plain.updated({"pose_noise": [2.0, 0.05]})  # a record's JSON list
+    assert noisy.pose_noise == (2.0, 0.05) and noisy.to_dict()["pose_noise"] == [2.0, 0.05]
+    assert Protocol.from_dict(noisy.to_dict()) == noisy
+    for split in ("train", "val", "test"):
+        a, b = load_split(plain, split), load_split(noisy, split)
+        assert a.ids == b.ids and np.array_equal(a.frames, b.frames)
+        changed = [not np.array_equal(x, y) for x, y in zip(a.voxels, b.voxels, strict=True)]
+        assert any(changed) == (split != "test"), split
+    with pytest.raises(ValueError, match="pose_noise must be"):
+        Protocol(pose_noise=(2.0, -0.05))
+    with pytest.raises(ValueError, match="pose_noise must be"):
+        Protocol(pose_noise=(2.0,))

@@ -131,7 +131,10 @@ def load_split(protocol: Protocol, split: str, progress: bool = False) -> Tensor
     :attr:`Protocol.events_root` and kept in memory for the next run of the same process.
     With ``train_scale`` s, the training split holds s x data_small's samples per category:
     its first ones for s <= 1, all of them plus objects of ``protocol.extra`` (every split)
-    for s > 1.
+    for s > 1. With ``pose_noise``, the training and validation labels are remade through
+    an orbit error per object
+    (:func:`~e2vlib.experiments.pose_study.labels_through_orbit_error`); the test split keeps
+    its own.
     """
     import torch
 
@@ -168,6 +171,12 @@ def load_split(protocol: Protocol, split: str, progress: bool = False) -> Tensor
         tensors = TensorSet(torch.cat([t.frames for t in parts]),
                             torch.cat([t.voxels for t in parts]),
                             [c for t in parts for c in t.categories], ids, parts[0].config)
+    if protocol.pose_noise is not None and split != "test":  # labels seen through orbit errors
+        from e2vlib.experiments.pose_study import labels_through_orbit_error
+
+        labels = labels_through_orbit_error(data, tensors.ids, protocol.pose_noise, progress)
+        tensors = TensorSet(tensors.frames, torch.from_numpy(labels), tensors.categories,
+                            tensors.ids, tensors.config)
     while len(_MEMORY) >= _MEMORY_SPLITS:
         del _MEMORY[next(iter(_MEMORY))]
     _MEMORY[key] = tensors

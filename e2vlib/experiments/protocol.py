@@ -18,7 +18,7 @@ Traceback (most recent call last):
 ...
 ValueError: unknown protocol keys ['epoch']; a protocol has data, events, representation, \
 n_frames, dt_us, frame_size, preset, loss, recipe, epochs, threads, noise, noise_events, \
-test_noise, train_scale, extra, test_data, per_category
+test_noise, train_scale, extra, test_data, per_category, pose_noise
 """
 
 from __future__ import annotations
@@ -59,6 +59,9 @@ class Protocol:
     extra: str | None = None  # a dataset of more objects, for train_scale > 1
     test_data: tuple[tuple[str, str], ...] | None = None  # (name, dataset) tested on too
     per_category: int | None = None  # only the first of each category (quick mode)
+    # (max camera angle error [deg], max relative radius error): each train and val label is
+    # remade as its object seen through an orbit error drawn per object (pose_study)
+    pose_noise: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         for name in ("n_frames", "dt_us", "frame_size", "epochs", "threads"):
@@ -70,6 +73,16 @@ class Protocol:
         if self.scale > 1 and self.extra is None:
             raise ValueError(f"train_scale {self.train_scale} needs more objects: set extra to "
                              "a dataset folder of them")
+        if self.pose_noise is not None:
+            if (len(self.pose_noise) != 2 or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < 90
+                    for v in self.pose_noise) or self.pose_noise[1] >= 1):
+                raise ValueError(f"protocol pose_noise must be (max degrees, max relative "
+                                 f"radius error), each >= 0 (radius below 1), got "
+                                 f"{self.pose_noise!r}")
+            if self.scale != 1:
+                raise ValueError("pose_noise remakes data_small's own labels; it cannot be "
+                                 "combined with train_scale")
         if self.noise_level != "clean" and self.noise_events is None:
             raise ValueError(f"noise {self.noise!r} needs noise_events, the folder of the "
                              "noisy events with '{level}' in its name")
@@ -90,6 +103,8 @@ class Protocol:
             values["test_noise"] = tuple(values["test_noise"])
         if values.get("test_data") is not None:  # a JSON object
             values["test_data"] = tuple(dict(values["test_data"]).items())
+        if values.get("pose_noise") is not None:  # a JSON list
+            values["pose_noise"] = tuple(values["pose_noise"])
         return cls(**values)
 
     def to_dict(self) -> dict:
@@ -99,7 +114,7 @@ class Protocol:
             value = getattr(self, f.name)
             if value is None:
                 continue
-            if f.name == "test_noise":
+            if f.name in ("test_noise", "pose_noise"):
                 value = list(value)
             elif f.name == "test_data":
                 value = dict(value)
@@ -161,7 +176,8 @@ class Protocol:
             "dt_us": self.dt_us, "frame_size": self.frame_size, "split": split,
             "data": self.data, "per_category": self.per_category, "noise": self.noise_level,
             "events": str(self.events_root), "train_scale": self.scale if train else 1,
-            "extra": self.extra if train else None})
+            "extra": self.extra if train else None,
+            "pose_noise": None if split == "test" else self.pose_noise})
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def train_counts(self) -> dict[str, int]:
