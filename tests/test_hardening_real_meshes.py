@@ -249,6 +249,7 @@ def _phone_extent(root: Path) -> list[int]:
     return [int(np.ptp(np.nonzero(voxels)[axis])) + 1 for axis in range(3)]
 
 
+@pytest.mark.slow  # builds a real set first (7 s); CI runs it (make test-all)
 def test_a_resumed_build_remakes_the_sample_of_a_row_whose_pose_changed(real_set, tmp_path):
     root = _copy_set(real_set, tmp_path)
     assert _phone_extent(root)[2] <= 3  # lying flat, as placed
@@ -262,6 +263,7 @@ def test_a_resumed_build_remakes_the_sample_of_a_row_whose_pose_changed(real_set
     assert source["rows"]["telephone_bs0_phone"].endswith(" stood_up")
 
 
+@pytest.mark.slow  # builds a real set first (7 s); CI runs it (make test-all)
 def test_grey_video_with_real_meshes_is_refused(real_set, tmp_path, capsys):
     from e2vlib.__main__ import main
 
@@ -278,6 +280,7 @@ def test_grey_video_with_real_meshes_is_refused(real_set, tmp_path, capsys):
     assert not (tmp_path / "cli").exists()
 
 
+@pytest.mark.slow  # builds a real set first (7 s); CI runs it (make test-all)
 def test_real_study_forgets_an_object_the_catalogue_dropped(real_set, tmp_path):
     base = real_set["base"]
     root = _copy_set(real_set, tmp_path)

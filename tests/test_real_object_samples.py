@@ -96,6 +96,7 @@ def test_flat_plane_stays_a_thin_shell():
     assert int(grid.sum()) == record["surface"] == 26 * 26
 
 
+@pytest.mark.slow  # 7 s of voxelizing; CI runs it (make test-all)
 def test_sphere_and_procedural_shapes_agree_with_voxelize():
     sphere = trimesh.creation.icosphere(4, radius=0.5)
     assert iou(labels.solid_labels(sphere)[0], voxelize(sphere)) > 0.99
