@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,851 lines)::
+Module map (``python tools/module_map.py --write``; 25,876 lines)::
 
-    lines per band: core 14,749 · speed and scale 1,171 · lab 8,718 · command line 1,213
+    lines per band: core 14,749 · speed and scale 1,171 · lab 8,743 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -98,7 +98,7 @@ Module map (``python tools/module_map.py --write``; 25,851 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          375  Training at scale
-    experiments/          8718  The lab
+    experiments/          8743  The lab
       build_cache.py        95  Datasets built once per machine and copied where a lesson ...
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         339  A study a student runs inside a lesson
@@ -117,14 +117,14 @@ Module map (``python tools/module_map.py --write``; 25,851 lines)::
         catalogue.py       497  Debian's Sweet Home 3D furniture libraries
         mapping.py         266  The reviewed table that maps catalogue entries to the ...
         meshes.py          185  One catalogue entry's model as a trimesh.Trimesh in the ...
-      real_objects/       2804  Real objects of the paper's categories from Debian packages
+      real_objects/       2829  Real objects of the paper's categories from Debian packages
         __main__.py        177  The recorded commands that build the real-object catalogue ...
         build.py           296  Joins the candidates, the review, the duplicates and the ...
         catalogue.py       216  The committed catalogue of real objects and its checker
         labels.py          206  Solid 32^3 voxel labels for open, many-part meshes
         look.py            142  Looking at the candidates
-        readers.py         333  Readers of the real objects' formats, each giving one mesh ...
-        samples.py         365  The real objects as samples a model trains on
+        readers.py         335  Readers of the real objects' formats, each giving one mesh ...
+        samples.py         388  The real objects as samples a model trains on
         ship.py            177  The real objects a lesson may ship
         sources.py         307  The Debian packages real objects come from
         study.py           550  The real_objects study

@@ -221,6 +221,34 @@ def test_builder_resumes_and_remakes_changed_rows(tiny, monkeypatch):
     assert [r["id"] for r in read_manifest(out)] == ["cabinet_hd_box"]
 
 
+def test_without_assimp_nothing_is_built_and_its_failures_are_retried_once_it_is_there(
+        tiny, monkeypatch):
+    cache, catalogue, out = tiny
+    rows = list(csv.DictReader(open(catalogue, newline="")))
+    rows.append(_row("rifle_oa_gun", "train", "baseoa/pak0.pk3::models/gun/gun.md3",
+                     source="openarena-data"))
+    _write_catalogue(catalogue, rows)
+    monkeypatch.setattr(samples.shutil, "which", lambda tool: None)
+    with pytest.raises(samples.RealMeshError, match="apt-get install assimp-utils"):
+        _build(tiny)
+    assert not list((out / "samples").glob("*.npz"))  # refused before any sample
+    # a record from a build that had no assimp (the error the reader gives) is tried again,
+    # a model's own failure is not
+    _build(tiny, only="hd_")
+    (out / "records" / "rifle_oa_gun.json").write_text(json.dumps({
+        "id": "rifle_oa_gun", "made_from": samples.made_from(
+            next(r for r in samples.read_catalogue(catalogue) if r.id == "rifle_oa_gun")),
+        "error": "RealMeshError: gun.md3: assimp is not installed; apt-get install "
+                 "assimp-utils"}))
+    made = []
+    monkeypatch.setattr(samples.shutil, "which", lambda tool: "/usr/bin/" + tool)
+    monkeypatch.setattr(samples, "make_sample", lambda cache, row, *a: made.append(row.id) or {
+        "error": "", "seconds": 0})
+    _build(tiny)
+    assert made == ["rifle_oa_gun"]  # not table_hd_gone, whose file is missing
+    assert samples.needs_assimp(samples.read_catalogue(catalogue)[-1])
+
+
 def test_builder_refuses_other_settings(tiny):
     cache, catalogue, out = tiny
     _build(tiny, only="box")

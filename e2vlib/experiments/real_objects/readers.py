@@ -68,6 +68,8 @@ MD2_MAGIC = b"IDP2"
 MD2_HEADER = struct.Struct("<4s16i")
 ASSIMP = "assimp"
 ASSIMP_HINT = "apt-get install assimp-utils"
+ASSIMP_SUFFIXES = (".3ds", ".md3")
+"""The model formats read through assimp."""
 
 
 def rotation_matrix(spec: str) -> np.ndarray:
@@ -209,7 +211,7 @@ def read_model(root: str | os.PathLike, path: str,
         return obj_to_mesh(data, where)
     if suffix == ".md2":
         return md2_to_mesh(data, where)
-    if suffix in (".3ds", ".md3"):
+    if suffix in ASSIMP_SUFFIXES:
         with tempfile.TemporaryDirectory() as tmp:
             file = Path(tmp) / ("model" + suffix)
             file.write_bytes(data)

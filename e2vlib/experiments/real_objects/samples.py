@@ -35,6 +35,7 @@ import csv
 import hashlib
 import json
 import os
+import shutil
 import signal
 import time
 from collections import Counter
@@ -42,7 +43,14 @@ from pathlib import Path
 
 from e2vlib import paper
 from e2vlib.experiments.real_objects.catalogue import CATALOGUE_CSV, RealObject, read_catalogue
-from e2vlib.experiments.real_objects.readers import GROUND_SQUARE, LIGHT_CONE
+from e2vlib.experiments.real_objects.readers import (
+    ASSIMP,
+    ASSIMP_HINT,
+    ASSIMP_SUFFIXES,
+    GROUND_SQUARE,
+    LIGHT_CONE,
+    RealMeshError,
+)
 from e2vlib.metrics import iou
 
 DATA_DIR = "cache/real_objects/data"
@@ -286,6 +294,12 @@ def _finish(out: Path, rows: list[RealObject], config) -> dict:
     return dict(sorted(built.items(), key=lambda kv: paper.CATEGORIES.index(kv[0])))
 
 
+def needs_assimp(row: RealObject) -> bool:
+    """Whether a catalogue row's model is read through assimp (``archive::member`` paths by
+    the member's name)."""
+    return Path(row.path.rsplit("::", 1)[-1]).suffix.lower() in ASSIMP_SUFFIXES
+
+
 def build_samples(cache: str | os.PathLike, out: str | os.PathLike,
                   catalogue: str | os.PathLike = CATALOGUE_CSV, config=None,
                   only: str | None = None, limit: int | None = None,
@@ -295,7 +309,10 @@ def build_samples(cache: str | os.PathLike, out: str | os.PathLike,
 
     ``only``: a regex on ids; ``limit``: stop after making this many samples (a build in
     pieces); ``config``: :func:`sample_config` by default. Samples on disk whose record
-    matches their row are kept; samples of rows that went or changed are removed first.
+    matches their row are kept; samples of rows that went or changed are removed first. A
+    row whose model failed is not tried again, unless it failed for want of assimp; with
+    rows to build through assimp and no assimp, nothing is built (the error says how to
+    install it).
     Stopping it (Ctrl-C, SIGTERM) finishes the current sample's files atomically and
     writes the manifest of what is built. Refuses a folder built with other settings.
     """
@@ -326,10 +343,16 @@ def build_samples(cache: str | os.PathLike, out: str | os.PathLike,
         if row.source in SH3D_SOURCES and not sh3d:
             continue
         rec = _read_record(out, row.id)
+        failed_here = bool(rec and rec.get("error")) and ASSIMP_HINT not in rec["error"]
         if rec is not None and rec.get("made_from") == made_from(row) and (
-                rec.get("error") or (out / "samples" / f"{row.id}.npz").is_file()):
-            continue
+                failed_here or (out / "samples" / f"{row.id}.npz").is_file()):
+            continue  # made, or failed for the model's own sake (a missing tool is retried)
         todo.append(row)
+    assimp_rows = [r.id for r in todo if needs_assimp(r)]
+    if assimp_rows and shutil.which(ASSIMP) is None:
+        raise RealMeshError(f"{len(assimp_rows)} rows to build (e.g. {assimp_rows[0]}) are "
+                            f"{' or '.join(ASSIMP_SUFFIXES)} models, read through assimp, "
+                            f"which is not installed: {ASSIMP_HINT}, then run this again")
     if limit is not None:
         todo = todo[:limit]
     start, failed = time.monotonic(), []
