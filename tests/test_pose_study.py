@@ -155,3 +155,13 @@ def test_a_pose_noise_protocol_remakes_train_and_val_labels_only():
         Protocol(pose_noise=(2.0, -0.05))
     with pytest.raises(ValueError, match="pose_noise must be"):
         Protocol(pose_noise=(2.0,))
+
+
+def test_level_objects_average_the_seeds_of_the_level_tables_methods():
+    results = json.loads((REPO / "experiments" / "results" / "pose.json").read_text())
+    table = ps.level_table(results)
+    for method in ("visual_hull", "e2v"):
+        for level, mean in table[method].items():
+            values = ps.level_objects(results, method, level)
+            assert len(values) == 78 and np.mean(list(values.values())) == pytest.approx(mean)
+    assert ps.level_objects(results, "e2v", "no_such_level") == {}

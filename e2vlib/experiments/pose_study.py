@@ -319,6 +319,27 @@ def level_table(results: Mapping) -> dict[str, dict[str, float]]:
     return {m: {level: float(np.mean(v)) for level, v in by.items()} for m, by in table.items()}
 
 
+def level_objects(results: Mapping, method: str, level: str) -> dict[str, float]:
+    """``{object id: IoU@0.3}`` of ``method`` at ``level``, a learned config's seeds
+    (``config/seedK``) averaged per object, ready for
+    :func:`e2vlib.experiments.hybrid_study.paired`.
+
+    >>> runs = [{"level": "exact", "object": "x", "scores": {
+    ...     "a/seed0": {"iou@0.3": 0.5}, "a/seed1": {"iou@0.3": 0.7}, "hull": {"iou@0.3": 0.4}}}]
+    >>> level_objects({"runs": runs}, "a", "exact"), level_objects({"runs": runs}, "hull", "exact")
+    ({'x': 0.6}, {'x': 0.4})
+    """
+    out = {}
+    for record in results["runs"]:
+        if record["level"] != level:
+            continue
+        values = [s["iou@0.3"] for name, s in record["scores"].items()
+                  if name.split("/")[0] == method]
+        if values:
+            out[record["object"]] = float(np.mean(values))
+    return out
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser of ``python -m e2vlib.experiments.pose_study``."""
     parser = argparse.ArgumentParser(prog=COMMAND, description=QUESTION)
