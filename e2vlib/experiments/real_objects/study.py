@@ -490,7 +490,7 @@ def format_real_objects_table(results: dict, key: str = "iou@val_threshold") -> 
 
 CURVE = ("fine_tuned_1/8", "fine_tuned_1/4", "fine_tuned_1/2", "fine_tuned")
 """The learning curve's configs, fewest real training objects first."""
-FIGURE_ORDER = ("procedural", "real", "fine_tuned", "mixed", "hybrid_mixed", "visual_hull",
+FIGURE_ORDER = ("procedural", "real", "fine_tuned", "mixed", "visual_hull",
                 "category_oracle", "mean_shape")
 
 
