@@ -24,9 +24,9 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,897 lines)::
+Module map (``python tools/module_map.py --write``; 25,923 lines)::
 
-    lines per band: core 14,749 · speed and scale 1,171 · lab 8,764 · command line 1,213
+    lines per band: core 14,750 · speed and scale 1,171 · lab 8,789 · command line 1,213
 
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
@@ -98,7 +98,7 @@ Module map (``python tools/module_map.py --write``; 25,897 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          375  Training at scale
-    experiments/          8764  The lab
+    experiments/          8789  The lab
       build_cache.py        95  Datasets built once per machine and copied where a lesson ...
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         339  A study a student runs inside a lesson
@@ -108,7 +108,8 @@ Module map (``python tools/module_map.py --write``; 25,897 lines)::
       geometry_study.py    289  The geometry study
       hybrid_study.py      127  The hybrid study read object by object
       loader.py            191  A study protocol's splits as model inputs, kept in memory ...
-      pose_study.py        387  The pose study
+      orbit_error.py       108  Orbit errors
+      pose_study.py        298  The pose study
       protocol.py          272  A study's protocol
       provenance.py         58  Where a record was made
       real_meshes/        1483  Real third-party meshes of the paper's categories, from ...

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from e2vlib.data import BuildConfig, load_sample, read_manifest
+from e2vlib.experiments import orbit_error as oe
 from e2vlib.experiments import pose_study as ps
 
 from .conftest import REPO
@@ -25,15 +26,15 @@ def config():
 
 
 def test_a_pose_error_is_a_rotation_by_the_angle_and_a_shrink_by_the_radius():
-    t = ps.pose_error(2.0, 0.10, seed=7)
+    t = oe.pose_error(2.0, 0.10, seed=7)
     m = t[:3, :3] * 1.10  # the rotation part
     assert np.allclose(m @ m.T, np.eye(3)) and np.isclose(np.linalg.det(m), 1.0)
     assert np.isclose(np.degrees(np.arccos((np.trace(m) - 1) / 2)), 2.0)
     assert np.allclose(t[:3, 3], 0) and np.allclose(t[3], [0, 0, 0, 1])
-    assert np.allclose(ps.pose_error(0, 0, seed=3), np.eye(4))
-    assert not np.allclose(ps.pose_error(2, 0, seed=1), ps.pose_error(2, 0, seed=2))  # the axis
+    assert np.allclose(oe.pose_error(0, 0, seed=3), np.eye(4))
+    assert not np.allclose(oe.pose_error(2, 0, seed=1), oe.pose_error(2, 0, seed=2))  # the axis
     with pytest.raises(ValueError, match="radius_error > -1"):
-        ps.pose_error(1.0, -1.0, seed=0)
+        oe.pose_error(1.0, -1.0, seed=0)
 
 
 def test_the_exact_level_is_data_smalls_sample_and_the_geometry_studys_scores(row, config):
@@ -111,17 +112,17 @@ def test_a_rerun_remakes_only_the_frames_that_are_gone_and_keeps_the_learned_sco
 
 
 def test_orbit_error_draws_stay_in_bounds_and_depend_on_the_object_only():
-    draws = [ps.orbit_error_draw(2.0, 0.05, seed) for seed in range(200)]
+    draws = [oe.orbit_error_draw(2.0, 0.05, seed) for seed in range(200)]
     angles, radii = np.array(draws).T
     assert angles.min() >= 0 and angles.max() <= 2 and np.abs(radii).max() <= 0.05
     assert radii.min() < -0.03 and radii.max() > 0.03  # both signs: wider and narrower
-    assert ps.orbit_error_draw(2.0, 0.05, 5) == draws[5]
-    assert ps.orbit_error_draw(0.0, 0.0, 5) == (0.0, 0.0)
+    assert oe.orbit_error_draw(2.0, 0.05, 5) == draws[5]
+    assert oe.orbit_error_draw(0.0, 0.0, 5) == (0.0, 0.0)
 
 
 def test_labels_through_no_orbit_error_are_the_stored_labels():
     rows = [r for r in read_manifest(DATA) if r["split"] == "train"][::97]
-    labels = ps.labels_through_orbit_error(DATA, [r["id"] for r in rows], (0.0, 0.0))
+    labels = oe.labels_through_orbit_error(DATA, [r["id"] for r in rows], (0.0, 0.0))
     for row, label in zip(rows, labels, strict=True):
         assert np.array_equal(label, load_sample(DATA / "samples" / f"{row['id']}.npz")[1])
 
@@ -132,8 +133,8 @@ def test_the_frames_of_a_wider_orbit_pair_with_a_larger_label():
     # grid and is cut there, so the volume grows about 1.1^2 = 1.21x (the wrong way, 0.83x)
     row = next(r for r in read_manifest(DATA) if r["id"] == "cabinet_0000")
     stored = load_sample(DATA / "samples" / "cabinet_0000.npz")[1]
-    wider = ps.label_through_orbit_error("cabinet", int(row["seed"]), 0.0, 0.10)
-    turned = ps.label_through_orbit_error("cabinet", int(row["seed"]), 5.0, 0.0)
+    wider = oe.label_through_orbit_error("cabinet", int(row["seed"]), 0.0, 0.10)
+    turned = oe.label_through_orbit_error("cabinet", int(row["seed"]), 5.0, 0.0)
     assert 1.1 < wider.sum() / stored.sum() < 1.3
     assert 0.9 < turned.sum() / stored.sum() < 1.1 and not np.array_equal(turned, stored)
 

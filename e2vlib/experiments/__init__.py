@@ -47,6 +47,12 @@ Imported by their module names (they run as commands, or load much):
 ================================  ===========================================================
 ``experiments.geometry_study``    the visual hull and events-only carving against the learned
                                   model, no training (:func:`run_geometry_study`)
+``experiments.hybrid_study``      the hybrid study read object by object against the
+                                  geometry baselines (paired intervals, per category)
+``experiments.pose_study``        every method when the orbit is off by an angle or a radius
+                                  error (``python -m e2vlib.experiments.pose_study``)
+``experiments.orbit_error``       an orbit error as a move of the object (:func:`pose_error`)
+                                  and training labels remade through one
 ``experiments.real_study``        models and baselines scored on real third-party meshes
                                   (``python -m e2vlib.experiments.real_study``)
 ``experiments.real_meshes``       the real meshes: catalogue, reviewed mapping, AC3D reader,

@@ -133,7 +133,7 @@ def load_split(protocol: Protocol, split: str, progress: bool = False) -> Tensor
     its first ones for s <= 1, all of them plus objects of ``protocol.extra`` (every split)
     for s > 1. With ``pose_noise``, the training and validation labels are remade through
     an orbit error per object
-    (:func:`~e2vlib.experiments.pose_study.labels_through_orbit_error`); the test split keeps
+    (:func:`~e2vlib.experiments.orbit_error.labels_through_orbit_error`); the test split keeps
     its own.
     """
     import torch
@@ -172,7 +172,7 @@ def load_split(protocol: Protocol, split: str, progress: bool = False) -> Tensor
                             torch.cat([t.voxels for t in parts]),
                             [c for t in parts for c in t.categories], ids, parts[0].config)
     if protocol.pose_noise is not None and split != "test":  # labels seen through orbit errors
-        from e2vlib.experiments.pose_study import labels_through_orbit_error
+        from e2vlib.experiments.orbit_error import labels_through_orbit_error
 
         labels = labels_through_orbit_error(data, tensors.ids, protocol.pose_noise, progress)
         tensors = TensorSet(tensors.frames, torch.from_numpy(labels), tensors.categories,
