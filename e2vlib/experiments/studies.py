@@ -161,7 +161,7 @@ STUDIES: dict[str, Study] = {
          "lifted_unet": {"preset": "lifted_unet"},
          # trained and validated on labels seen through orbit errors of up to 2 degrees and
          # 5 % radius (orbit_error.labels_through_orbit_error); tested on the exact labels
-         "hybrid_early_pose_noise": {"preset": "hybrid_early", "pose_noise": (2.0, 0.05)}},
+         "hybrid_early_pose_noise": {"preset": "hybrid_early", "pose_noise": [2.0, 0.05]}},
         base={"recipe": "tiny_step_even", "preset": "tiny_norm", "loss": "bce_dice",
               "epochs": 30},
     ),
