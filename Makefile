@@ -30,11 +30,16 @@ lab: $(STAMP)
 # The tests run in TEST_WORKERS processes (pytest-xdist; TEST_WORKERS=0 runs them in this
 # one), each test where a worker is free. OMP_WAIT_POLICY=PASSIVE: torch's idle threads sleep
 # instead of spinning, which on 2 cores would take the other process's core (measured: 668 s
-# spinning, 254 s passive, 452 s in one process).
+# spinning, 254 s passive, 452 s in one process). OMP_NUM_THREADS: each worker (and each
+# lesson's kernel) gets its share of the cores, as torch threads; with more threads than
+# cores a parallel step waits for a thread the other process holds (measured on 2 cores:
+# 213 s at 2 threads a worker, 198 s at 1).
 PYTEST := $(QUICK_ENV) $(PY) -m pytest
 PYTEST_ARGS ?=
 TEST_WORKERS ?= 2
-PARALLEL := $(if $(filter 0,$(TEST_WORKERS)),,OMP_WAIT_POLICY=PASSIVE)
+CORES = $(shell $(PYTHON) -c "import os; print(len(os.sched_getaffinity(0)) if hasattr(os, \"sched_getaffinity\") else os.cpu_count() or 1)" 2>/dev/null || echo 1)
+THREADS_PER_WORKER = $(shell expr $(CORES) / $(TEST_WORKERS) \| 1)
+PARALLEL = $(if $(filter 0,$(TEST_WORKERS)),,OMP_WAIT_POLICY=PASSIVE OMP_NUM_THREADS=$(THREADS_PER_WORKER))
 PARALLEL_ARGS := $(if $(filter 0,$(TEST_WORKERS)),,-n $(TEST_WORKERS) --dist worksteal)
 
 test: $(STAMP) lint imports

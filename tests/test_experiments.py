@@ -119,6 +119,7 @@ def test_recorded_command_reproduces_the_call():
         "python -m e2vlib experiment time --seeds 0 1 2")
 
 
+@pytest.mark.slow  # three trainings; make test keeps reuse in the data-scale test
 def test_a_run_with_the_same_full_protocol_is_reused_and_a_fresh_one_agrees(
         tiny_events_dataset, tmp_path):
     overrides = _overrides(tiny_events_dataset)

@@ -112,6 +112,7 @@ def test_fit_learns_a_toy_task_and_writes_files(trained):
         assert read_checkpoint(tmp_path / name)["data_config"] == DATA_CONFIG
 
 
+@pytest.mark.slow  # seconds; make test keeps exact resume in the per-step test below
 def test_resume_is_exact(trained, tmp_path):
     _, straight, straight_history = trained
 
@@ -493,7 +494,7 @@ def two_channel_set(n=16, seed=0) -> TensorSet:
     return TensorSet(frames, base.voxels, base.categories, base.ids)
 
 
-@pytest.mark.parametrize("loss", ["focal", "bce_dice"])
+@pytest.mark.parametrize("loss", ["focal", pytest.param("bce_dice", marks=pytest.mark.slow)])
 def test_fit_with_another_loss_trains_records_and_validates_with_it(loss_runs, loss):
     val = toy_set(8, seed=1)
     tmp_path, history = loss_runs(loss)
@@ -566,7 +567,7 @@ def test_resume_refuses_another_loss_and_reads_older_checkpoints(loss_runs, trai
     assert [h["epoch"] for h in history] == [1, 2, 3, 4, 5]
 
 
-@pytest.mark.parametrize("preset", ["tiny", "tiny2d"])
+@pytest.mark.parametrize("preset", [pytest.param("tiny", marks=pytest.mark.slow), "tiny2d"])
 def test_channels_last_keeps_the_values_and_trains_the_same(tmp_path, preset):
     def make():
         return small_model(encoder="frames2d") if preset == "tiny2d" else small_model()
