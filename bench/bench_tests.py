@@ -102,8 +102,9 @@ environment (`build/bench_tests/venv`), starting as a new clone on a new machine
 bytecode, no numba cache, no dataset build cache (the lessons' mini datasets are built on the
 first run and copied on later ones, `experiments.build_cache`). `make test` runs ruff, the
 import contracts, the doctests, the unit tests without the `slow` tier (10 Hypothesis examples
-per property) and every lesson in quick mode, in two pytest-xdist processes; `make test-all`
-(CI) adds the tests marked `slow` and the full Hypothesis counts (150).
+per property) and every lesson in quick mode, in two pytest-xdist processes with one torch
+thread each (`OMP_NUM_THREADS`, the cores shared out); `make test-all` (CI) adds the tests
+marked `slow` and the full Hypothesis counts (150).
 
 | command | when | wall time | pytest's count |
 | --- | --- | --- | --- |

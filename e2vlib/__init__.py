@@ -1,17 +1,20 @@
 """e2vlib: the thin, tested helper library behind the e2v notebooks.
 
-Three bands, imports running downward only:
+Imports run downward only, through these bands, lowest first:
 
-- **core**, the top-level modules and packages: one per step of the E2V pipeline (Chen et
-  al., ICVR 2023), what lessons 00-08 teach, data flowing one way::
+- **objects**, ``shapes/``: the procedural objects to reconstruct (content, no pipeline
+  step); they import only ``paper`` and ``files``.
+- **core**, the other top-level modules and packages: one per step of the E2V pipeline (Chen
+  et al., ICVR 2023), what lessons 00-08 teach, data flowing one way::
 
-      shapes -> voxels, orbit -> render -> simulate -> noise -> io -> frames -> inputs
-      -> data -> model -> train -> geometry, viz
+      voxels, orbit -> render -> simulate -> noise -> io -> frames -> inputs -> data
+      -> model -> train -> geometry
 
   ``paper`` (the paper's facts and our documented choices), ``files`` (crash-safe writing),
   ``events`` (the event array everything passes along), ``metrics`` (IoU and F-score of
   plain arrays) and ``losses`` are shared by every step. A function a lesson opens reads top
   to bottom in one sitting.
+- **pictures**, ``viz/``: 2-D and 3-D views of what core makes; core never imports them.
 - **speed and scale**, ``scale/``: opt-in modules that give core's answers faster or larger
   (compiled frames, a plotter cache, resumable and data-parallel training, sharded builds).
 - **lab**, ``experiments/``: the studies, their records and reports, real meshes, the
@@ -24,10 +27,25 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,923 lines)::
+Module map (``python tools/module_map.py --write``; 25,934 lines)::
 
-    lines per band: core 14,750 · speed and scale 1,171 · lab 8,789 · command line 1,213
+    lines per band: objects 3,026 · core 10,426 · pictures 1,302 · speed and scale 1,171 ·
+    lab 8,796 · command line 1,213
 
+    shapes/               3026  Objects to reconstruct
+      builders.py          128  The category -> builder table, make_shape (the procedural ...
+      cabinets.py          324  Procedural cabinets in five sub-types (CABINET_KINDS), the ...
+      devices.py           165  Procedural category builder: the rifle
+      displays.py          307  Procedural displays in five sub-types (DISPLAY_KINDS), the ...
+      furniture.py         507  Procedural category builders
+      lamps.py             117  Procedural category builder
+      meshes.py            199  Meshes in and out of the project's frame
+      parts.py              34  Helpers every category builder shares
+      primitives.py        126  Mesh primitives the procedural objects are built from
+      shapenet.py           73  Reading a ShapeNetCore folder
+      speakers.py          283  Procedural loudspeakers in six sub-types (SPEAKER_KINDS) ...
+      telephones.py        307  Procedural telephones in five sub-types (TELEPHONE_KINDS) ...
+      vehicles.py          409  Procedural category builders
     _headless.py           128  VTK's environment for headless machines and notebooks, set ...
     data/                 1994  Datasets
       build.py             254  Building a dataset
@@ -63,26 +81,13 @@ Module map (``python tools/module_map.py --write``; 25,923 lines)::
     orbit.py               444  The camera orbit's clock and geometry, numpy only
     paper.py               291  The paper's facts as named constants, and our documented ...
     render.py              260  Render the paper's spiral camera orbit around an object into ...
-    shapes/               3026  Objects to reconstruct
-      builders.py          128  The category -> builder table, make_shape (the procedural ...
-      cabinets.py          324  Procedural cabinets in five sub-types (CABINET_KINDS), the ...
-      devices.py           165  Procedural category builder: the rifle
-      displays.py          307  Procedural displays in five sub-types (DISPLAY_KINDS), the ...
-      furniture.py         507  Procedural category builders
-      lamps.py             117  Procedural category builder
-      meshes.py            199  Meshes in and out of the project's frame
-      parts.py              34  Helpers every category builder shares
-      primitives.py        126  Mesh primitives the procedural objects are built from
-      shapenet.py           73  Reading a ShapeNetCore folder
-      speakers.py          283  Procedural loudspeakers in six sub-types (SPEAKER_KINDS) ...
-      telephones.py        307  Procedural telephones in five sub-types (TELEPHONE_KINDS) ...
-      vehicles.py          409  Procedural category builders
     simulate.py            446  Turn a video into events with the ESIM model of an event camera
     train/                 885  Training and evaluation of E2V
       devices.py            36  Where training runs: resolve_device picks the device
       evaluation.py        176  Predictions and the Pix2Vox evaluation protocol
       loop.py              409  The training loop, fit, and the pieces it is made of
       recipes.py           213  Training recipes (optimizer settings and epochs) and their ...
+    voxels.py              472  Occupancy grids
     viz/                  1302  Pictures of events, frames, voxels and meshes
       animation.py          70  Matplotlib animations of frame stacks, shown as ...
       export.py            139  A predicted grid as files other tools read
@@ -91,14 +96,13 @@ Module map (``python tools/module_map.py --write``; 25,923 lines)::
       scenes.py            338  PyVista scenes of voxels and meshes
       style.py              24  The lessons' colours and default views
       widgets.py           192  Widgets around a matplotlib picture that still shows where ...
-    voxels.py              472  Occupancy grids
     scale/                1171  Speed and scale
       frames_numba.py      358  Frames from events with compiled (numba) kernels
       options.py             7  The choices of fit_at_scale's options, importable without ...
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          375  Training at scale
-    experiments/          8789  The lab
+    experiments/          8796  The lab
       build_cache.py        95  Datasets built once per machine and copied where a lesson ...
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         339  A study a student runs inside a lesson
@@ -109,7 +113,7 @@ Module map (``python tools/module_map.py --write``; 25,923 lines)::
       hybrid_study.py      127  The hybrid study read object by object
       loader.py            191  A study protocol's splits as model inputs, kept in memory ...
       orbit_error.py       108  Orbit errors
-      pose_study.py        298  The pose study
+      pose_study.py        305  The pose study
       protocol.py          272  A study's protocol
       provenance.py         58  Where a record was made
       real_meshes/        1483  Real third-party meshes of the paper's categories, from ...

@@ -1,4 +1,4 @@
-"""The library's layout: three bands and core's data flow (import-linter), torch-free faces.
+"""The library's layout: its bands and core's data flow (import-linter), torch-free faces.
 
 The import contracts themselves live in ``.importlinter`` at the repository root and are checked
 by ``lint-imports`` in ``make test``; these tests check that the contracts cover every module,
@@ -41,6 +41,33 @@ def test_every_module_of_the_package_sits_in_one_band_or_stage():
     bands = [layer for layer in _layers() if layer & {"e2vlib.cli", "e2vlib.experiments",
                                                       "e2vlib.scale"}]
     assert bands == [{"e2vlib.__main__", "e2vlib.cli"}, {"e2vlib.experiments"}, {"e2vlib.scale"}]
+
+
+def test_core_names_the_pipeline_and_shapes_and_viz_have_their_own_contracts():
+    """Core's contract lists every module but the objects (shapes), the pictures (viz) and the
+    bands above; shapes and viz each have a contract of their own, and the module map puts
+    each top-level module in the band of the contracts, lowest first."""
+    sys.path.insert(0, str(REPO / "tools"))
+    try:
+        from module_map import BANDS, band
+    finally:
+        sys.path.remove(str(REPO / "tools"))
+    config = configparser.ConfigParser()
+    config.read(CONTRACTS)
+
+    def sources(contract):
+        return set(config[f"importlinter:contract:{contract}"]["source_modules"].split())
+
+    tops = {m for layer in _layers() for m in layer}
+    above = {"e2vlib.scale", "e2vlib.experiments", "e2vlib.cli", "e2vlib.__main__"}
+    assert sources("core-never-imports-lab-or-scale") == tops - above - {"e2vlib.shapes",
+                                                                         "e2vlib.viz"}
+    assert sources("objects-are-content") == {"e2vlib.shapes"}
+    assert sources("pictures-draw-the-pipeline") == {"e2vlib.viz"}
+    order = [band(m.split(".")[1]) for layer in reversed(_layers()) for m in sorted(layer)]
+    firsts = list(dict.fromkeys(b for b in order if b != "core"))
+    assert firsts == [b for b in BANDS if b != "core"]  # the bands climb as the layers do
+    assert band("shapes") == "objects" and band("viz") == "pictures" and band("geometry") == "core"
 
 
 def test_no_contract_waives_an_import():

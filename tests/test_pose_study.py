@@ -72,9 +72,10 @@ def test_a_bad_checkpoint_argument_fails_like_the_main_command_line(capsys, tmp_
     assert not (tmp_path / "pose.json").exists()
 
 
-def test_a_rerun_remakes_only_the_frames_that_are_gone_and_keeps_the_learned_scores(
-        tmp_path, monkeypatch):
-    """The perturbed objects are faked (a cube seen as itself): this checks the bookkeeping."""
+@pytest.fixture
+def faked(tmp_path, monkeypatch):
+    """The perturbed objects faked (a 16^3 cube in the 32^3 grid, seen as itself), to check the
+    bookkeeping: ``(run_pose_study's arguments, the ids of the objects made, in order)``."""
     made = []
 
     def fake_object(row, config, level):
@@ -85,8 +86,13 @@ def test_a_rerun_remakes_only_the_frames_that_are_gone_and_keeps_the_learned_sco
                 "hull": label, "carved": np.zeros_like(label)}
 
     monkeypatch.setattr(ps, "perturbed_object", fake_object)
-    run = {"out": tmp_path, "data": DATA, "cache": tmp_path / "cache", "levels": ("exact",),
-           "limit_per_category": 1, "progress": False}
+    return {"out": tmp_path, "data": DATA, "cache": tmp_path / "cache", "levels": ("exact",),
+            "limit_per_category": 1, "progress": False}, made
+
+
+def test_a_rerun_remakes_only_the_frames_that_are_gone_and_keeps_the_learned_scores(
+        faked, tmp_path):
+    run, made = faked
     path = ps.run_pose_study(**run)
     first = list(made)
     assert len(first) == len(set(first)) == 13  # one test object per category
@@ -106,6 +112,28 @@ def test_a_rerun_remakes_only_the_frames_that_are_gone_and_keeps_the_learned_sco
     assert record["scores"]["a_model"] == {"iou@0.3": 0.5}
     assert record["scores"]["visual_hull"]["iou@0.2"] == pytest.approx(1.0)
     assert all((tmp_path / "cache" / "exact" / f"{o}.npz").exists() for o in gone)
+
+
+def test_an_added_checkpoint_scores_every_record_once_and_its_command_is_kept(
+        faked, monkeypatch):
+    import torch
+
+    run, _ = faked
+    path = ps.run_pose_study(**run)
+    loaded = []
+    monkeypatch.setattr("e2vlib.model.load_checkpoint", loaded.append)
+    # a model that fills the grid: IoU with the 16^3 cube is 16^3 / 32^3 = 0.125
+    monkeypatch.setattr("e2vlib.train.predict", lambda model, x, device: torch.full(
+        (len(x), 32, 32, 32), 0.9))
+    ps.add_checkpoints(path, {"filler/seed0": "filler.pt"}, run["cache"], progress=False)
+    results = json.loads(path.read_text())
+    assert loaded == ["filler.pt"] and len(results["runs"]) == 13
+    assert all(r["scores"]["filler/seed0"] == {"iou@0.3": 0.125} for r in results["runs"])
+    assert ps.level_table(results)["filler"] == {"exact": 0.125}
+    assert results["commands"] == [ps.COMMAND,
+                                   f"{ps.COMMAND} --checkpoint filler/seed0=filler.pt"]
+    ps.add_checkpoints(path, {"filler/seed0": "filler.pt"}, run["cache"], progress=False)
+    assert loaded == ["filler.pt"] and json.loads(path.read_text()) == results  # nothing new
 
 
 # ---------------------------------------------------------------- training under pose noise

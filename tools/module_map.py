@@ -37,15 +37,18 @@ def lines(path: Path) -> int:
     return len(path.read_text().splitlines())
 
 
-BANDS = ("core", "speed and scale", "lab", "command line")
-"""The library's three bands and the command line on top, in import order (lowest first)."""
+BANDS = ("objects", "core", "pictures", "speed and scale", "lab", "command line")
+"""The library's bands in import order (lowest first), as ``.importlinter`` has them: the
+objects to reconstruct (``shapes``), core (the pipeline), the pictures (``viz``), speed and
+scale, the lab, and the command line on top."""
 
 
 def band(name: str) -> str:
     """The band a top-level module or package (``"frames.py"``, ``"scale/"``) belongs to."""
     top = name.strip().rstrip("/").removesuffix(".py")
-    return {"scale": "speed and scale", "experiments": "lab", "cli": "command line",
-            "__main__": "command line"}.get(top, "core")
+    named = {"shapes": "objects", "viz": "pictures", "scale": "speed and scale",
+             "experiments": "lab", "cli": "command line", "__main__": "command line"}
+    return named.get(top, "core")
 
 
 def _package_rows(path: Path, depth: int) -> list[tuple[str, int, str]]:
@@ -62,8 +65,8 @@ def _package_rows(path: Path, depth: int) -> list[tuple[str, int, str]]:
 
 
 def module_rows(package: Path = PACKAGE) -> list[tuple[str, int, str]]:
-    """``(name, lines, purpose)`` of every module, grouped by band (core, speed and scale, lab,
-    command line); a package first (its ``__init__``'s purpose, the lines of all its modules)
+    """``(name, lines, purpose)`` of every module, grouped by band (:data:`BANDS`, lowest
+    first); a package first (its ``__init__``'s purpose, the lines of all its modules)
     and then its modules, indented; sorted by name within a band."""
     top = []
     for path in sorted(package.iterdir()):
@@ -103,10 +106,22 @@ def band_summary() -> str:
     return " · ".join(f"{b} {n:,}" for b, n in band_lines().items())
 
 
+def wrapped_summary(indent: str) -> str:
+    """:func:`band_summary` after ``lines per band:``, broken between bands to fit WIDTH."""
+    out, line = [], "lines per band:"
+    for part in band_summary().split(" · "):
+        if len(line) + len(part) + 3 > WIDTH:
+            out.append(line + " ·")
+            line = part
+        else:
+            line += (" " if line.endswith(":") else " · ") + part
+    return "\n".join(indent + text for text in [*out, line])
+
+
 def doc_block() -> str:
     total = sum(band_lines().values())
     return (f"{DOC_BEGIN}``python tools/module_map.py --write``; {total:,} lines)::\n\n"
-            f"    lines per band: {band_summary()}\n\n"
+            f"{wrapped_summary('    ')}\n\n"
             + render(module_rows(), "    ") + f"\n\n{DOC_END}")
 
 

@@ -184,7 +184,8 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str | os.
                     cache: str | os.PathLike = "cache/pose", progress: bool = True) -> Path:
     """Score each learned model (``{name: checkpoint path}``, e.g. ``{"hybrid_early/seed0":
     ...}``) on every recorded (level, object)'s perturbed frames at IoU@0.3 and add it to those
-    records' scores (a name already scored is skipped)."""
+    records' scores (a name already scored is skipped). The command that scored them joins the
+    results' ``commands``."""
     import torch
 
     from e2vlib.experiments.runner import OBJECT_KEY, read_results, update_results
@@ -213,6 +214,12 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str | os.
             if progress:
                 print(f"{name} at {level}: IoU@0.3 {float(np.mean(values)):.3f} "
                       f"({len(values)} objects)")
+    commands = results.setdefault("commands", [results["command"]])
+    command = f"{COMMAND} " + " ".join(f"--checkpoint {name}={checkpoint}"
+                                       for name, checkpoint in checkpoints.items())
+    if command not in commands:  # where each learned score came from
+        commands.append(command)
+        update_results(path, results, OBJECT_KEY)
     return path
 
 
