@@ -7,8 +7,8 @@ Imports run downward only, through these bands, lowest first:
 - **core**, the other top-level modules and packages: one per step of the E2V pipeline (Chen
   et al., ICVR 2023), what lessons 00-08 teach, data flowing one way::
 
-      voxels, orbit -> render -> simulate -> noise -> io -> frames -> inputs -> data
-      -> model -> train -> geometry
+      (shapes ->) voxels, orbit -> render -> simulate -> noise -> io -> frames -> inputs
+      -> data -> model -> train -> geometry (-> viz)
 
   ``paper`` (the paper's facts and our documented choices), ``files`` (crash-safe writing),
   ``events`` (the event array everything passes along), ``metrics`` (IoU and F-score of
