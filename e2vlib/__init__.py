@@ -27,10 +27,10 @@ loads no torch or VTK, and that the map below is current.
 
 Importing the package does no work: no seeds, no downloads, no plotting backend changes.
 
-Module map (``python tools/module_map.py --write``; 25,934 lines)::
+Module map (``python tools/module_map.py --write``; 25,939 lines)::
 
     lines per band: objects 3,026 · core 10,426 · pictures 1,302 · speed and scale 1,171 ·
-    lab 8,796 · command line 1,213
+    lab 8,801 · command line 1,213
 
     shapes/               3026  Objects to reconstruct
       builders.py          128  The category -> builder table, make_shape (the procedural ...
@@ -102,18 +102,18 @@ Module map (``python tools/module_map.py --write``; 25,934 lines)::
       render_cache.py      124  Off-screen plotters kept for reuse between render_orbit calls
       shards.py            288  Sharded dataset builds
       training.py          375  Training at scale
-    experiments/          8796  The lab
+    experiments/          8801  The lab
       build_cache.py        95  Datasets built once per machine and copied where a lesson ...
       caches.py             91  The dataset folders the studies read besides data_small, and ...
       classroom.py         339  A study a student runs inside a lesson
       errors.py            129  How a command fails
       explore.py           246  A dataset explorer
       figures.py           116  The README's pictures, rendered from a dataset and a trained ...
-      geometry_study.py    289  The geometry study
+      geometry_study.py    287  The geometry study
       hybrid_study.py      127  The hybrid study read object by object
       loader.py            191  A study protocol's splits as model inputs, kept in memory ...
       orbit_error.py       108  Orbit errors
-      pose_study.py        305  The pose study
+      pose_study.py        302  The pose study
       protocol.py          272  A study's protocol
       provenance.py         58  Where a record was made
       real_meshes/        1483  Real third-party meshes of the paper's categories, from ...
@@ -136,7 +136,7 @@ Module map (``python tools/module_map.py --write``; 25,934 lines)::
       real_study.py        421  Scoring on real meshes
       reconstruct.py       327  Reconstruct one object with a trained checkpoint, from a ...
       reports.py           240  Recorded results, read the same way by every lesson
-      runner.py            573  Running studies
+      runner.py            583  Running studies
       shipping.py           94  Ship one recorded run's model
       studies.py           186  The studies
       summary.py           167  A study's results as numbers

@@ -22,9 +22,8 @@ def lesson_builds() -> set[tuple]:
             if cell["cell_type"] != "code" or "build_mini_dataset(" not in source:
                 continue
             for node in ast.walk(ast.parse(source)):
-                name = getattr(getattr(node, "func", None), "attr", None) or getattr(
-                    getattr(node, "func", None), "id", None)
-                if isinstance(node, ast.Call) and name == "build_mini_dataset":
+                if isinstance(node, ast.Call) and ast.unparse(node.func).endswith(
+                        "build_mini_dataset"):
                     found.add(tuple(sorted((k.arg, ast.literal_eval(k.value))
                                            for k in node.keywords if k.arg != "progress")))
     return found

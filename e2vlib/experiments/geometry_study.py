@@ -33,6 +33,7 @@ from e2vlib import metrics, paper
 from e2vlib.experiments.provenance import REPO, git_commit
 from e2vlib.experiments.runner import (
     OBJECT_KEY,
+    add_command,
     check_results_path,
     read_results,
     update_results,
@@ -232,11 +233,8 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str],
         if "category_oracle" not in record["scores"]:
             record["scores"]["category_oracle"] = score_occupancy(oracle[record["category"]],
                                                                   label, n_points)
-    commands = results.setdefault("commands", [results.get("command")])
-    command = "python -m e2vlib experiment geometry " + " ".join(
-        f"--checkpoint {name}={ckpt}" for name, ckpt in checkpoints.items())
-    if command not in commands:
-        commands.append(command)
+    add_command(results, "python -m e2vlib experiment geometry " + " ".join(
+        f"--checkpoint {name}={ckpt}" for name, ckpt in checkpoints.items()))
     update_results(path, results, OBJECT_KEY)  # another --checkpoint run's scores are kept
     return path
 

@@ -188,7 +188,7 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str | os.
     results' ``commands``."""
     import torch
 
-    from e2vlib.experiments.runner import OBJECT_KEY, read_results, update_results
+    from e2vlib.experiments.runner import OBJECT_KEY, add_command, read_results, update_results
     from e2vlib.metrics import iou
     from e2vlib.model import load_checkpoint
     from e2vlib.train import predict
@@ -214,11 +214,8 @@ def add_checkpoints(path: str | os.PathLike, checkpoints: Mapping[str, str | os.
             if progress:
                 print(f"{name} at {level}: IoU@0.3 {float(np.mean(values)):.3f} "
                       f"({len(values)} objects)")
-    commands = results.setdefault("commands", [results["command"]])
-    command = f"{COMMAND} " + " ".join(f"--checkpoint {name}={checkpoint}"
-                                       for name, checkpoint in checkpoints.items())
-    if command not in commands:  # where each learned score came from
-        commands.append(command)
+    if add_command(results, f"{COMMAND} " + " ".join(  # where each learned score came from
+            f"--checkpoint {name}={checkpoint}" for name, checkpoint in checkpoints.items())):
         update_results(path, results, OBJECT_KEY)
     return path
 

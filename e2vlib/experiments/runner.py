@@ -429,6 +429,18 @@ def update_results(path: str | os.PathLike, results: dict, key: Sequence[str] = 
     return merged
 
 
+def add_command(results: dict, command: str) -> bool:
+    """Add ``command`` to ``results["commands"]``, every invocation that added to the record in
+    order, unless it is there already (a record without the list starts it with its
+    ``command``); return whether it was added."""
+    commands = results.setdefault("commands",
+                                  [results["command"]] if results.get("command") else [])
+    if command in commands:
+        return False
+    commands.append(command)
+    return True
+
+
 def _same_protocol(recorded: dict, protocol: Protocol) -> bool:
     """True when a results file's ``recorded`` protocol is ``protocol`` (unknown keys: no)."""
     try:
@@ -533,9 +545,7 @@ def run_study(study: str, configs: Sequence[str] | None = None,
                          f"use another --out folder to run this one ({protocol.to_dict()})")
     results["command"] = command_line(study, configs, seeds, quick, reuse,
                                       str(checkpoints) if checkpoints else None)
-    commands = results.setdefault("commands", [])  # every invocation that added runs, in order
-    if results["command"] not in commands:
-        commands.append(results["command"])
+    add_command(results, results["command"])
     done = {_run_id(r, RUN_KEY) for r in results["runs"]}
     todo = [(n, s) for n in names for s in seeds if (n, int(s)) not in done]
     bar = tqdm(todo, desc=f"{study} runs", unit="run", disable=not progress)
